@@ -1,0 +1,243 @@
+//! Reads `modelDescription/modelDescription.xml`, the one source of truth for the FMU's
+//! variables, and generates the Rust variable table (`variables.rs` in OUT_DIR).
+//! The FMI layer includes that file, so the XML and the code cannot disagree.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use quick_xml::Reader;
+use quick_xml::events::{BytesStart, Event};
+
+const MODEL_DESCRIPTION: &str = "modelDescription/modelDescription.xml";
+
+struct Variable {
+    name: String,
+    value_reference: u32,
+    causality: String,
+    variability: String,
+    value_type: String,
+    start: Option<String>,
+    min: Option<String>,
+    max: Option<String>,
+    unit: Option<String>,
+}
+
+fn attribute(element: &BytesStart, key: &str) -> Option<String> {
+    element
+        .try_get_attribute(key)
+        .unwrap_or_else(|e| panic!("{MODEL_DESCRIPTION}: bad attribute {key}: {e}"))
+        .map(|a| {
+            a.normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                .unwrap_or_else(|e| panic!("{MODEL_DESCRIPTION}: bad value of {key}: {e}"))
+                .into_owned()
+        })
+}
+
+fn required(element: &BytesStart, key: &str) -> String {
+    attribute(element, key).unwrap_or_else(|| {
+        let tag = element.name().as_ref().to_owned();
+        panic!("{MODEL_DESCRIPTION}: <{tag}> has no {key}")
+    })
+}
+
+/// `steerRate` -> `SteerRate`: the Rust enum variant of a variable.
+fn variant_name(name: &str) -> String {
+    let mut chars = name.chars();
+    let first = chars.next().expect("empty variable name");
+    first.to_uppercase().chain(chars).collect()
+}
+
+fn float_literal(text: &Option<String>) -> String {
+    match text {
+        Some(t) => {
+            let v: f64 = t
+                .parse()
+                .unwrap_or_else(|_| panic!("{MODEL_DESCRIPTION}: '{t}' is not a number"));
+            format!("Some({v:?}_f64)")
+        }
+        None => "None".to_owned(),
+    }
+}
+
+fn parse(xml: &str) -> (String, String, Vec<Variable>) {
+    let mut reader = Reader::from_str(xml);
+    reader.config_mut().trim_text(true);
+    let (mut guid, mut model_identifier) = (None, None);
+    let mut variables: Vec<Variable> = Vec::new();
+    let mut open: Option<Variable> = None;
+    loop {
+        match reader.read_event() {
+            Ok(Event::Start(e)) | Ok(Event::Empty(e)) => match e.name().as_ref() {
+                "fmiModelDescription" => guid = Some(required(&e, "guid")),
+                "CoSimulation" => model_identifier = Some(required(&e, "modelIdentifier")),
+                "ScalarVariable" => {
+                    open = Some(Variable {
+                        name: required(&e, "name"),
+                        value_reference: required(&e, "valueReference")
+                            .parse()
+                            .expect("valueReference must be an unsigned integer"),
+                        causality: attribute(&e, "causality").unwrap_or("local".into()),
+                        variability: attribute(&e, "variability").unwrap_or("continuous".into()),
+                        value_type: String::new(),
+                        start: None,
+                        min: None,
+                        max: None,
+                        unit: None,
+                    })
+                }
+                tag @ ("Real" | "Integer" | "Enumeration" | "Boolean" | "String") => {
+                    if let Some(v) = open.as_mut() {
+                        v.value_type = tag.to_owned();
+                        v.start = attribute(&e, "start");
+                        v.min = attribute(&e, "min");
+                        v.max = attribute(&e, "max");
+                        v.unit = attribute(&e, "unit");
+                    }
+                }
+                _ => {}
+            },
+            Ok(Event::End(e)) if e.name().as_ref() == "ScalarVariable" => {
+                variables.push(open.take().expect("unbalanced <ScalarVariable>"));
+            }
+            Ok(Event::Eof) => break,
+            Ok(_) => {}
+            Err(e) => panic!(
+                "{MODEL_DESCRIPTION}: XML error at {}: {e}",
+                reader.error_position()
+            ),
+        }
+    }
+    (
+        guid.expect("no guid in the model description"),
+        model_identifier.expect("no <CoSimulation modelIdentifier>"),
+        variables,
+    )
+}
+
+fn check(variables: &[Variable]) {
+    for (i, v) in variables.iter().enumerate() {
+        assert!(
+            matches!(v.value_type.as_str(), "Real" | "Enumeration"),
+            "{}: only Real and Enumeration variables are supported, found {}",
+            v.name,
+            v.value_type
+        );
+        for w in &variables[..i] {
+            assert!(w.name != v.name, "variable {} is declared twice", v.name);
+            assert!(
+                w.value_reference != v.value_reference,
+                "{} and {} share value reference {}",
+                w.name,
+                v.name,
+                v.value_reference
+            );
+        }
+    }
+}
+
+fn generate(guid: &str, model_identifier: &str, variables: &[Variable]) -> String {
+    let mut out = String::new();
+    let w = &mut out;
+    writeln!(
+        w,
+        "// Generated by build.rs from {MODEL_DESCRIPTION}. Do not edit."
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "/// GUID of the model description; fmi2Instantiate must be given this one."
+    )
+    .unwrap();
+    writeln!(w, "pub const GUID: &str = {guid:?};").unwrap();
+    writeln!(
+        w,
+        "/// Model identifier: the binary's name and the exported functions' prefix."
+    )
+    .unwrap();
+    writeln!(w, "pub const MODEL_IDENTIFIER: &str = {model_identifier:?};").unwrap();
+    writeln!(
+        w,
+        "/// The model description, verbatim, for checks at run time and in tests."
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "pub const MODEL_DESCRIPTION_XML: &str = include_str!(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/{MODEL_DESCRIPTION}\"));"
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "\n/// Every ScalarVariable of the model description, in declaration order."
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]\npub enum Variable {{"
+    )
+    .unwrap();
+    for v in variables {
+        writeln!(w, "    /// `{}`, value reference {}", v.name, v.value_reference).unwrap();
+        writeln!(w, "    {},", variant_name(&v.name)).unwrap();
+    }
+    writeln!(w, "}}\n").unwrap();
+    writeln!(
+        w,
+        "/// Attributes of each variable, indexed by `Variable as usize`."
+    )
+    .unwrap();
+    writeln!(w, "pub const VARIABLES: [VariableInfo; {}] = [", variables.len()).unwrap();
+    for v in variables {
+        let causality = variant_name(&v.causality);
+        let variability = variant_name(&v.variability);
+        writeln!(
+            w,
+            "    VariableInfo {{ variable: Variable::{}, name: {:?}, value_reference: {}, causality: Causality::{causality}, variability: Variability::{variability}, value_type: ValueType::{}, start: {}, min: {}, max: {}, unit: {:?} }},",
+            variant_name(&v.name),
+            v.name,
+            v.value_reference,
+            v.value_type,
+            float_literal(&v.start),
+            float_literal(&v.min),
+            float_literal(&v.max),
+            v.unit.as_deref().unwrap_or(""),
+        )
+        .unwrap();
+    }
+    writeln!(w, "];\n").unwrap();
+    writeln!(w, "impl Variable {{").unwrap();
+    writeln!(
+        w,
+        "    /// The variable with this value reference, if there is one."
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "    pub const fn from_value_reference(value_reference: u32) -> Option<Variable> {{"
+    )
+    .unwrap();
+    writeln!(w, "        match value_reference {{").unwrap();
+    for v in variables {
+        writeln!(
+            w,
+            "            {} => Some(Variable::{}),",
+            v.value_reference,
+            variant_name(&v.name)
+        )
+        .unwrap();
+    }
+    writeln!(w, "            _ => None,\n        }}\n    }}\n}}").unwrap();
+    out
+}
+
+fn main() {
+    println!("cargo:rerun-if-changed={MODEL_DESCRIPTION}");
+    println!("cargo:rerun-if-changed=build.rs");
+    let xml = std::fs::read_to_string(MODEL_DESCRIPTION)
+        .unwrap_or_else(|e| panic!("cannot read {MODEL_DESCRIPTION}: {e}"));
+    let (guid, model_identifier, variables) = parse(&xml);
+    check(&variables);
+    let code = generate(&guid, &model_identifier, &variables);
+    let out_dir = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
+    std::fs::write(Path::new(&out_dir).join("variables.rs"), code).expect("cannot write variables.rs");
+
+}

@@ -1,0 +1,324 @@
+#!/usr/bin/env python3
+"""TireLag demo: the four tire-lag models side by side, at 0, 0.5 and 20 m/s.
+
+Two frequency sweeps (linear chirps, 0.1 Hz -> 3 Hz over 10 s), each run for every
+model and speed with fmpy's FMU2Slave:
+
+  lateral  The wheel hub is shaken sideways, y(t) = Y sin(phi(t)), Y = 10 mm, no steering:
+           vy = dy/dt, steerRate = 0. At 0 m/s the tire is a spring (RLT: Fy = -C_y y,
+           undamped) or a spring-damper (DDT, SecondOrder, RingBody). At 20 m/s every model
+           is close to the first-order lag Fy/alpha = Calpha/(1 + s sigmaY/|vx|).
+  steer    The wheel is steered about its vertical axis, delta(t) = D sin(phi(t)),
+           D = 1 deg, while the hub moves straight ahead at vx: steerRate = d(delta)/dt,
+           vy = -vx sin(delta) (the hub velocity seen in the steered wheel frame).
+           At 0 m/s only DDT has a yaw spring-damper and so a steering moment Mz; at speed
+           the slip angle alpha = delta gives Fy and the trail moment -trail*Fy.
+
+The inputs are given at every communication point (10 ms) together with their time
+derivatives (fmi2SetRealInputDerivatives), so the FMU integrates exactly the piecewise
+linear input between the points.
+
+Writes (relative to the repository root, or to --out-dir):
+
+  out/demo.csv  long format, one row per scenario, model, speed and time point. Columns:
+                scenario (lateral|steer), model (RLT|DDT|SecondOrder|RingBody),
+                time [s], hubY [m] (lateral hub displacement of the lateral sweep, else 0),
+                steer [rad] (steer angle of the steer sweep, else 0),
+                then the FMU inputs vx [m/s], vy [m/s], steerRate [rad/s], vsx [m/s], Fz [N]
+                and all FMU outputs Fx [N], Fy [N], Mz [N.m], My [N.m], alphaT [rad],
+                kappaT [1], deflX [m], deflY [m], deflPsi [rad].
+  out/demo.png  top row: the input chirps; then one row per speed (0, 0.5, 20 m/s) with
+                Fy(t) and the force-displacement loop Fy vs y of the lateral sweep, and
+                Fy(t) and Mz(t) of the steer sweep; one line per model. A straight line in
+                the loop is a lossless spring (RLT at 0 m/s), an ellipse a damped one.
+
+Usage: .venv/bin/python scripts/demo.py [FMU] [--out-dir DIR]
+       (FMU defaults to target/fmu/TireLag.fmu in the repository root)
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+
+MODELS = {"RLT": 1, "DDT": 2, "SecondOrder": 3, "RingBody": 4}
+SPEEDS = (0.0, 0.5, 20.0)  # vx, m/s
+STOP_TIME = 10.0  # s
+STEP = 0.01  # communication step, s
+F_START, F_END = 0.1, 3.0  # chirp frequencies, Hz
+HUB_AMPLITUDE = 0.010  # lateral sweep: hub displacement amplitude Y, m
+STEER_AMPLITUDE = np.deg2rad(1.0)  # steer sweep: steer angle amplitude D, rad
+
+INPUTS = ("vx", "vy", "steerRate", "vsx", "Fz")
+OUTPUTS = ("Fx", "Fy", "Mz", "My", "alphaT", "kappaT", "deflX", "deflY", "deflPsi")
+STYLE = {  # colour and dash per model, so that overlapping curves stay visible
+    "RLT": ("tab:blue", "-"),
+    "DDT": ("tab:orange", "--"),
+    "SecondOrder": ("tab:green", "-."),
+    "RingBody": ("tab:red", ":"),
+}
+
+
+def chirp(t: np.ndarray, amplitude: float):
+    """Linear chirp a sin(phi(t)), f(t) = F_START + (F_END - F_START) t / STOP_TIME.
+
+    Returns the signal and its exact time derivative."""
+    rate = (F_END - F_START) / STOP_TIME
+    phase = 2 * np.pi * (F_START * t + 0.5 * rate * t**2)
+    omega = 2 * np.pi * (F_START + rate * t)
+    return amplitude * np.sin(phase), amplitude * omega * np.cos(phase)
+
+
+def frequency(t):
+    return F_START + (F_END - F_START) * np.asarray(t) / STOP_TIME
+
+
+def scenario_inputs(scenario: str, vx: float, t: np.ndarray) -> dict[str, np.ndarray]:
+    """The prescribed motion and the FMU inputs at the time points t."""
+    zero = np.zeros_like(t)
+    if scenario == "lateral":
+        hub_y, vy = chirp(t, HUB_AMPLITUDE)
+        return {"hubY": hub_y, "steer": zero, "vy": vy, "steerRate": zero}
+    if scenario == "steer":
+        steer, steer_rate = chirp(t, STEER_AMPLITUDE)
+        return {"hubY": zero, "steer": steer, "vy": -vx * np.sin(steer), "steerRate": steer_rate}
+    raise ValueError(scenario)
+
+
+class TireFmu:
+    """The extracted FMU and its value references, looked up by name."""
+
+    def __init__(self, fmu_path: Path):
+        self.description = read_model_description(str(fmu_path))
+        self.unzipdir = extract(str(fmu_path))
+        self.vr = {v.name: v.valueReference for v in self.description.modelVariables}
+        missing = [n for n in INPUTS + OUTPUTS + ("model",) if n not in self.vr]
+        if missing:
+            raise SystemExit(f"{fmu_path}: the model description lacks {missing}")
+
+    def close(self):
+        shutil.rmtree(self.unzipdir, ignore_errors=True)
+
+    def simulate(self, model: str, vx: float, t: np.ndarray, u: dict[str, np.ndarray]) -> dict:
+        """One run of the FMU: vy and steerRate follow u (ramped exactly between the
+        points t), vx is held, vsx = 0, Fz at its start value (the nominal load)."""
+        vr = self.vr
+        slave = FMU2Slave(
+            guid=self.description.guid,
+            unzipDirectory=self.unzipdir,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName=f"{model}_{vx:g}",
+        )
+        slave.instantiate()
+        try:
+            slave.setupExperiment(startTime=float(t[0]), stopTime=float(t[-1]))
+            slave.setInteger([vr["model"]], [MODELS[model]])
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+
+            ramped = [vr["vy"], vr["steerRate"]]
+            out_vrs = [vr[name] for name in OUTPUTS + ("Fz",)]
+            slave.setReal([vr["vx"]], [vx])
+            result = np.empty((len(t), len(out_vrs)))
+            for k in range(len(t)):
+                slave.setReal(ramped, [u["vy"][k], u["steerRate"][k]])
+                result[k] = slave.getReal(out_vrs)
+                if k + 1 == len(t):
+                    break
+                h = t[k + 1] - t[k]
+                slopes = [(u[name][k + 1] - u[name][k]) / h for name in ("vy", "steerRate")]
+                slave.setRealInputDerivatives(ramped, [1, 1], slopes)
+                slave.doStep(currentCommunicationPoint=t[k], communicationStepSize=h)
+            slave.terminate()
+        finally:
+            slave.freeInstance()
+        columns = {name: result[:, i] for i, name in enumerate(OUTPUTS + ("Fz",))}
+        columns.update(vx=np.full_like(t, vx), vsx=np.zeros_like(t))
+        return columns
+
+
+def run_all(fmu: TireFmu, t: np.ndarray) -> list[dict]:
+    runs = []
+    for scenario in ("lateral", "steer"):
+        for vx in SPEEDS:
+            u = scenario_inputs(scenario, vx, t)
+            for model in MODELS:
+                y = fmu.simulate(model, vx, t, u)
+                runs.append({"scenario": scenario, "model": model, "speed": vx, **u, **y})
+    return runs
+
+
+def write_csv(path: Path, t: np.ndarray, runs: list[dict]):
+    columns = ("hubY", "steer") + INPUTS + OUTPUTS
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(("scenario", "model", "time") + columns)
+        for run in runs:
+            data = np.column_stack([t] + [run[c] for c in columns])
+            for row in data:
+                writer.writerow([run["scenario"], run["model"]] + [f"{v:.10g}" for v in row])
+
+
+def find(runs, scenario, vx, model):
+    return next(r for r in runs if r["scenario"] == scenario and r["speed"] == vx and r["model"] == model)
+
+
+LOOP_WINDOW = 1.0  # s: the force-displacement loops show the last second (~2.7-3 Hz)
+
+
+def plot(path: Path, t: np.ndarray, runs: list[dict], calpha: float):
+    fig, axes = plt.subplots(len(SPEEDS) + 1, 4, figsize=(20, 13))
+    time_axes = [ax for ax in axes.flat if ax not in axes[1:, 1]]
+    for ax in time_axes[1:]:
+        ax.sharex(time_axes[0])
+
+    # Row 0: the prescribed motions, with the chirp frequency on a top axis.
+    hub_y, hub_vy = chirp(t, HUB_AMPLITUDE)
+    steer, steer_rate = chirp(t, STEER_AMPLITUDE)
+    inputs = (
+        (1e3 * hub_y, "hub lateral displacement y [mm]", "Lateral sweep: hub motion y(t)"),
+        (hub_vy, "vy = dy/dt [m/s]", "Lateral sweep: input vy (steerRate = 0)"),
+        (np.rad2deg(steer), "steer angle δ [deg]", "Steer sweep: δ(t), input vy = -vx·sin δ"),
+        (np.rad2deg(steer_rate), "steerRate = dδ/dt [deg/s]", "Steer sweep: input steerRate"),
+    )
+    for ax, (signal, unit, title) in zip(axes[0], inputs):
+        ax.plot(t, signal, color="black", lw=1)
+        ax.set(ylabel=unit, title=title)
+        top = ax.secondary_xaxis(
+            "top",
+            functions=(frequency, lambda f: (np.asarray(f) - F_START) * STOP_TIME / (F_END - F_START)),
+        )
+        top.set_xlabel("chirp frequency [Hz]")
+
+    panels = (  # (scenario, output, scale, unit label, panel title)
+        ("lateral", "Fy", 1e-3, "Fy [kN]", "lateral sweep: Fy(t)"),
+        ("lateral", "loop", 1e-3, "Fy [kN]", f"lateral sweep: Fy vs y, last {LOOP_WINDOW:g} s "
+         f"({frequency(STOP_TIME - LOOP_WINDOW):.1f}–{F_END:g} Hz)"),
+        ("steer", "Fy", 1e-3, "Fy [kN]", "steer sweep: Fy(t)"),
+        ("steer", "Mz", 1.0, "Mz [N·m]", "steer sweep: Mz(t)"),
+    )
+    window = t >= STOP_TIME - LOOP_WINDOW - 1e-9
+    for row, vx in enumerate(SPEEDS, start=1):
+        for col, (scenario, output, scale, unit, title) in enumerate(panels):
+            ax = axes[row, col]
+            peak = 0.0
+            for model in MODELS:
+                run = find(runs, scenario, vx, model)
+                colour, dash = STYLE[model]
+                if output == "loop":
+                    ax.plot(1e3 * run["hubY"][window], scale * run["Fy"][window],
+                            color=colour, ls=dash, lw=1.3, label=model)
+                    continue
+                ax.plot(t, scale * run[output], color=colour, ls=dash, lw=1.3, label=model)
+                peak = max(peak, np.max(np.abs(run[output])))
+            if output == "loop":
+                ax.set_xlabel("hub lateral displacement y [mm]")
+            elif output == "Fy" and vx > 0:
+                # Steady-state (no-lag) force Calpha * alpha, alpha = -vy/|vx|, drawn when
+                # it fits the panel's scale.
+                vy = find(runs, scenario, vx, "RLT")["vy"]
+                quasi_static = calpha * (-vy / abs(vx))
+                if np.max(np.abs(quasi_static)) <= 3 * peak:
+                    ax.plot(t, scale * quasi_static, color="black", lw=0.8, alpha=0.6,
+                            label="steady state Cα·α (no lag)")
+            if output != "loop" and peak < 1e-9:
+                ax.text(0.5, 0.75, f"{output} = 0 for every model", transform=ax.transAxes,
+                        ha="center", va="center", fontsize=11,
+                        bbox=dict(facecolor="white", edgecolor="none"))
+                ax.set_ylim(-1, 1)
+            ax.set_title(f"vx = {vx:g} m/s, {title}")
+            ax.set_ylabel(unit)
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        if ax is not axes[-1, 1]:
+            ax.set_xlabel("time t [s]")
+
+    handles, labels = [], []
+    for ax in axes.flat:  # one legend entry per distinct line label
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=12, frameon=True)
+    fig.suptitle(
+        f"TireLag, default parameters: four tire-lag models under a {F_START:g}→{F_END:g} Hz chirp "
+        f"(lateral hub shake ±{1e3 * HUB_AMPLITUDE:g} mm; steering ±{np.rad2deg(STEER_AMPLITUDE):g}° "
+        "while the hub moves straight at vx)",
+        fontsize=13,
+    )
+    fig.tight_layout(rect=(0, 0.03, 1, 0.98))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def summary(t, runs):
+    """Printed table: peak |Fy| (lateral sweep) and peak |Mz| (steer sweep)."""
+    late = t >= STOP_TIME - 1.0
+    lines = [
+        "peak |Fy| in the lateral sweep [N] (whole run / last 1 s, ~2.8-3 Hz) and "
+        "peak |Mz| in the steer sweep [N.m]:",
+        f"  {'vx [m/s]':>8}  {'model':<12} {'Fy':>9} {'Fy 3Hz':>9} {'Mz':>9}",
+    ]
+    for vx in SPEEDS:
+        for model in MODELS:
+            fy = find(runs, "lateral", vx, model)["Fy"]
+            mz = find(runs, "steer", vx, model)["Mz"]
+            lines.append(
+                f"  {vx:>8g}  {model:<12} {np.max(np.abs(fy)):>9.0f} "
+                f"{np.max(np.abs(fy[late])):>9.0f} {np.max(np.abs(mz)):>9.1f}"
+            )
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("fmu", nargs="?", type=Path, default=REPO / "target" / "fmu" / "TireLag.fmu",
+                        help="the FMU (default: target/fmu/TireLag.fmu in the repository)")
+    parser.add_argument("--out-dir", type=Path, default=REPO / "out",
+                        help="where demo.csv and demo.png go (default: out/ in the repository)")
+    args = parser.parse_args(argv)
+    if not args.fmu.is_file():
+        sys.exit(f"demo: no FMU at {args.fmu}; build it with ./scripts/build-fmu (or run ./scripts/demo)")
+    args.out_dir.mkdir(parents=True, exist_ok=True)
+
+    started = time.perf_counter()
+    t = np.round(np.arange(0.0, STOP_TIME + STEP / 2, STEP), 12)
+    fmu = TireFmu(args.fmu)
+    try:
+        runs = run_all(fmu, t)
+        calpha = next(v for v in fmu.description.modelVariables if v.name == "Calpha").start
+    finally:
+        fmu.close()
+    elapsed = time.perf_counter() - started
+
+    csv_path = args.out_dir / "demo.csv"
+    png_path = args.out_dir / "demo.png"
+    write_csv(csv_path, t, runs)
+    plot(png_path, t, runs, float(calpha))
+
+    print(f"FMU: {args.fmu}")
+    print(f"simulated {len(runs)} runs (2 sweeps x {len(SPEEDS)} speeds x {len(MODELS)} models), "
+          f"{len(t) - 1} steps of {STEP:g} s each, in {elapsed:.2f} s")
+    print(summary(t, runs))
+    print(f"CSV: {csv_path.resolve()}")
+    print(f"PNG: {png_path.resolve()}")
+
+
+if __name__ == "__main__":
+    main()

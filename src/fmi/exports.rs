@@ -1,0 +1,638 @@
+//! The exported FMI 2.0 functions: pointer checks, the panic boundary and the mapping
+//! from call results to status codes. Each function's signature is checked at compile
+//! time against its typedef in the official headers (`fmi2...TYPE`).
+
+#![allow(non_snake_case, non_upper_case_globals)]
+
+use std::ffi::{CStr, CString, c_char};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::ptr::null_mut;
+
+use super::instance::Instance;
+use super::logger::{self, Category, Logger};
+use super::snapshot::Snapshot;
+use super::state_machine::Call;
+use super::status::{CallResult, Rejection, Status};
+use super::sys::*;
+use super::variables::GUID;
+
+/// An fmi2FMUstate: a snapshot owned by the importer until fmi2FreeFMUstate.
+struct FmuState(Snapshot);
+
+/// Upper bound on the element count of any array argument; far above any real use, and
+/// it keeps a garbage count from becoming an absurd slice.
+const MAX_ELEMENTS: usize = 1 << 24;
+
+/// Borrows a C array; null is accepted only for zero elements.
+///
+/// # Safety
+/// A non-null `ptr` must point to `n` valid elements for the duration of the call.
+unsafe fn array<'a, T>(ptr: *const T, n: usize, name: &str) -> CallResult<&'a [T]> {
+    if n == 0 {
+        return Ok(&[]);
+    }
+    if ptr.is_null() {
+        return Err(Rejection::error(format!(
+            "{name} is NULL but {n} elements were given"
+        )));
+    }
+    if n > MAX_ELEMENTS {
+        return Err(Rejection::error(format!(
+            "{name}: {n} elements is more than the {MAX_ELEMENTS} allowed"
+        )));
+    }
+    // SAFETY: non-null, and the caller promises `n` elements.
+    Ok(unsafe { std::slice::from_raw_parts(ptr, n) })
+}
+
+/// # Safety
+/// As [`array`], for writing.
+unsafe fn array_mut<'a, T>(ptr: *mut T, n: usize, name: &str) -> CallResult<&'a mut [T]> {
+    unsafe { array(ptr, n, name)? };
+    if n == 0 {
+        return Ok(&mut []);
+    }
+    // SAFETY: checked non-null and bounded above; the caller promises `n` elements.
+    Ok(unsafe { std::slice::from_raw_parts_mut(ptr, n) })
+}
+
+/// # Safety
+/// A non-null `ptr` must point to a writable `T`.
+unsafe fn out<'a, T>(ptr: *mut T, name: &str) -> CallResult<&'a mut T> {
+    // SAFETY: the caller promises a writable T behind a non-null pointer.
+    unsafe { ptr.as_mut() }.ok_or_else(|| Rejection::error(format!("{name} is NULL")))
+}
+
+/// # Safety
+/// A non-null `ptr` must be a NUL-terminated string.
+unsafe fn text<'a>(ptr: *const c_char, name: &str) -> CallResult<&'a str> {
+    if ptr.is_null() {
+        return Err(Rejection::error(format!("{name} is NULL")));
+    }
+    // SAFETY: non-null and NUL-terminated by the caller's promise.
+    unsafe { CStr::from_ptr(ptr) }
+        .to_str()
+        .map_err(|_| Rejection::error(format!("{name} is not UTF-8")))
+}
+
+/// Runs `body` on the instance behind `c`, inside the panic boundary, and turns its
+/// result into a status, logging the reason for anything but fmi2OK.
+fn with_instance(
+    c: fmi2Component,
+    function: &str,
+    body: impl FnOnce(&mut Instance) -> CallResult,
+) -> fmi2Status {
+    let instance = c.cast::<Instance>();
+    if instance.is_null() {
+        return Status::Error as fmi2Status;
+    }
+    // SAFETY: a non-null component is an instance made by fmi2Instantiate and not yet
+    // freed; the importer calls it from one thread at a time.
+    let result = catch_unwind(AssertUnwindSafe(|| body(unsafe { &mut *instance })));
+    let instance = unsafe { &mut *instance };
+    let status = match result {
+        Ok(Ok(())) => {
+            instance.logger.log(Status::Ok, Category::All, function);
+            Status::Ok
+        }
+        Ok(Err(rejection)) => {
+            instance.log(rejection.status, &format!("{function}: {}", rejection.message));
+            rejection.status
+        }
+        Err(_) => {
+            instance.poison();
+            instance.log(
+                Status::Fatal,
+                &format!("{function}: internal error; only fmi2FreeInstance and fmi2Reset are allowed now"),
+            );
+            Status::Fatal
+        }
+    };
+    status as fmi2Status
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetVersion() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+/// Checks fmi2Instantiate's arguments and makes the instance, or says why not.
+///
+/// # Safety
+/// Pointers as fmi2Instantiate's.
+unsafe fn instantiate(
+    instance_name: fmi2String,
+    fmu_type: fmi2Type,
+    guid: fmi2String,
+    functions: *const fmi2CallbackFunctions,
+    logging_on: bool,
+) -> Option<Box<Instance>> {
+    // SAFETY: a non-null callback table is the importer's, valid for the instance's life.
+    let functions = unsafe { functions.as_ref() }?;
+    let callback = functions.logger;
+    callback?;
+    let environment = functions.componentEnvironment;
+    let name = unsafe { text(instance_name, "instanceName") }
+        .ok()
+        .filter(|n| !n.is_empty());
+    let report = |message: String| {
+        let shown = CString::new(name.unwrap_or("")).unwrap_or_default();
+        logger::send(
+            callback,
+            environment,
+            &shown,
+            Status::Error,
+            Category::StatusError,
+            &format!("fmi2Instantiate: {message}"),
+        );
+        None
+    };
+    let Some(name) = name else {
+        return report("instanceName must be a non-empty string".into());
+    };
+    if fmu_type != fmi2Type_fmi2CoSimulation {
+        return report(format!(
+            "fmuType {fmu_type}: this FMU supports only Co-Simulation (fmi2CoSimulation = {fmi2Type_fmi2CoSimulation})"
+        ));
+    }
+    match unsafe { text(guid, "fmuGUID") } {
+        Ok(given) if given == GUID => {}
+        Ok(given) => return report(format!("fmuGUID {given} does not match this FMU's {GUID}")),
+        Err(e) => return report(e.message),
+    }
+    let logger = Logger::new(
+        callback,
+        environment,
+        CString::new(name).unwrap_or_default(),
+        logging_on,
+    );
+    match Instance::new(logger) {
+        Ok(instance) => Some(Box::new(instance)),
+        Err(e) => report(e),
+    }
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2Instantiate(
+    instanceName: fmi2String,
+    fmuType: fmi2Type,
+    fmuGUID: fmi2String,
+    _fmuResourceLocation: fmi2String,
+    functions: *const fmi2CallbackFunctions,
+    _visible: fmi2Boolean,
+    loggingOn: fmi2Boolean,
+) -> fmi2Component {
+    let made =
+        catch_unwind(|| unsafe { instantiate(instanceName, fmuType, fmuGUID, functions, loggingOn != 0) });
+    match made {
+        Ok(Some(instance)) => Box::into_raw(instance).cast(),
+        _ => null_mut(),
+    }
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2FreeInstance(c: fmi2Component) {
+    if !c.is_null() {
+        // SAFETY: made by fmi2Instantiate with Box::into_raw, freed once by the importer.
+        let _ = catch_unwind(|| drop(unsafe { Box::from_raw(c.cast::<Instance>()) }));
+    }
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetDebugLogging(
+    c: fmi2Component,
+    loggingOn: fmi2Boolean,
+    nCategories: usize,
+    categories: *const fmi2String,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetDebugLogging", |instance| {
+        instance.require(Call::SetDebugLogging)?;
+        let pointers = unsafe { array(categories, nCategories, "categories")? };
+        let names = pointers
+            .iter()
+            .map(|&p| unsafe { text(p, "category") })
+            .collect::<CallResult<Vec<_>>>()?;
+        instance.set_debug_logging(loggingOn != 0, &names)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetupExperiment(
+    c: fmi2Component,
+    _toleranceDefined: fmi2Boolean,
+    _tolerance: fmi2Real,
+    startTime: fmi2Real,
+    stopTimeDefined: fmi2Boolean,
+    stopTime: fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetupExperiment", |instance| {
+        instance.require(Call::SetupExperiment)?;
+        instance.setup_experiment(startTime, (stopTimeDefined != 0).then_some(stopTime))
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2EnterInitializationMode", |instance| {
+        instance.require(Call::EnterInitializationMode)?;
+        instance.enter_initialization_mode()
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2ExitInitializationMode", |instance| {
+        instance.require(Call::ExitInitializationMode)?;
+        instance.exit_initialization_mode()
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2Terminate", |instance| {
+        instance.require(Call::Terminate)?;
+        instance.terminate()
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2Reset", |instance| {
+        instance.require(Call::Reset)?;
+        instance.reset()
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetReal(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2GetReal", |instance| unsafe {
+        instance.get_real(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetInteger(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
+    with_instance(c, "fmi2GetInteger", |instance| unsafe {
+        instance.get_integer(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetBoolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    _value: *mut fmi2Boolean,
+) -> fmi2Status {
+    with_instance(c, "fmi2GetBoolean", |instance| {
+        instance.no_variables_of_type(Call::GetValues, unsafe { array(vr, nvr, "vr")? })
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetString(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    _value: *mut fmi2String,
+) -> fmi2Status {
+    with_instance(c, "fmi2GetString", |instance| {
+        instance.no_variables_of_type(Call::GetValues, unsafe { array(vr, nvr, "vr")? })
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetReal(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetReal", |instance| unsafe {
+        instance.set_real(array(vr, nvr, "vr")?, array(value, nvr, "value")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetInteger(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Integer,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetInteger", |instance| unsafe {
+        instance.set_integer(array(vr, nvr, "vr")?, array(value, nvr, "value")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetBoolean(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    _value: *const fmi2Boolean,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetBoolean", |instance| {
+        instance.no_variables_of_type(Call::SetValues, unsafe { array(vr, nvr, "vr")? })
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetString(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    _value: *const fmi2String,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetString", |instance| {
+        instance.no_variables_of_type(Call::SetValues, unsafe { array(vr, nvr, "vr")? })
+    })
+}
+
+/// # Safety
+/// A non-null `state` must come from fmi2GetFMUstate or fmi2DeSerializeFMUstate.
+unsafe fn fmu_state<'a>(state: fmi2FMUstate) -> CallResult<&'a FmuState> {
+    // SAFETY: the importer passes back a pointer we made and have not freed.
+    unsafe { state.cast::<FmuState>().as_ref() }.ok_or_else(|| Rejection::error("FMUstate is NULL"))
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2GetFMUstate", |instance| {
+        let slot = unsafe { out(FMUstate, "FMUstate")? };
+        let snapshot = instance.snapshot()?;
+        match unsafe { slot.cast::<FmuState>().as_mut() } {
+            Some(existing) => existing.0 = snapshot,
+            None => *slot = Box::into_raw(Box::new(FmuState(snapshot))).cast(),
+        }
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2SetFMUstate", |instance| {
+        instance.restore(&unsafe { fmu_state(FMUstate)? }.0)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2FreeFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
+    with_instance(c, "fmi2FreeFMUstate", |_| {
+        let Some(slot) = (unsafe { FMUstate.as_mut() }) else {
+            return Ok(());
+        };
+        if !slot.is_null() {
+            // SAFETY: made by Box::into_raw in this file; the slot is cleared so it is freed once.
+            drop(unsafe { Box::from_raw(slot.cast::<FmuState>()) });
+            *slot = null_mut();
+        }
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SerializedFMUstateSize(
+    c: fmi2Component,
+    FMUstate: fmi2FMUstate,
+    size: *mut usize,
+) -> fmi2Status {
+    with_instance(c, "fmi2SerializedFMUstateSize", |instance| {
+        instance.require(Call::GetFmuState)?;
+        let bytes = unsafe { fmu_state(FMUstate)? }.0.to_bytes();
+        *unsafe { out(size, "size")? } = bytes.len();
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SerializeFMUstate(
+    c: fmi2Component,
+    FMUstate: fmi2FMUstate,
+    serializedState: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
+    with_instance(c, "fmi2SerializeFMUstate", |instance| {
+        instance.require(Call::GetFmuState)?;
+        let bytes = unsafe { fmu_state(FMUstate)? }.0.to_bytes();
+        if size < bytes.len() {
+            return Err(Rejection::error(format!(
+                "size {size} is too small: the state needs {} bytes",
+                bytes.len()
+            )));
+        }
+        let target = unsafe { array_mut(serializedState.cast::<u8>(), bytes.len(), "serializedState")? };
+        target.copy_from_slice(&bytes);
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2DeSerializeFMUstate(
+    c: fmi2Component,
+    serializedState: *const fmi2Byte,
+    size: usize,
+    FMUstate: *mut fmi2FMUstate,
+) -> fmi2Status {
+    with_instance(c, "fmi2DeSerializeFMUstate", |instance| {
+        instance.require(Call::SetFmuState)?;
+        let slot = unsafe { out(FMUstate, "FMUstate")? };
+        let bytes = unsafe { array(serializedState.cast::<u8>(), size, "serializedState")? };
+        let snapshot = Snapshot::from_bytes(bytes).map_err(Rejection::error)?;
+        match unsafe { slot.cast::<FmuState>().as_mut() } {
+            Some(existing) => existing.0 = snapshot,
+            None => *slot = Box::into_raw(Box::new(FmuState(snapshot))).cast(),
+        }
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetDirectionalDerivative(
+    c: fmi2Component,
+    vUnknown_ref: *const fmi2ValueReference,
+    nUnknown: usize,
+    vKnown_ref: *const fmi2ValueReference,
+    nKnown: usize,
+    dvKnown: *const fmi2Real,
+    dvUnknown: *mut fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2GetDirectionalDerivative", |instance| unsafe {
+        instance.directional_derivative(
+            array(vUnknown_ref, nUnknown, "vUnknown_ref")?,
+            array(vKnown_ref, nKnown, "vKnown_ref")?,
+            array(dvKnown, nKnown, "dvKnown")?,
+            array_mut(dvUnknown, nUnknown, "dvUnknown")?,
+        )
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetRealInputDerivatives(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    order: *const fmi2Integer,
+    value: *const fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2SetRealInputDerivatives", |instance| unsafe {
+        instance.set_input_derivatives(
+            array(vr, nvr, "vr")?,
+            array(order, nvr, "order")?,
+            array(value, nvr, "value")?,
+        )
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetRealOutputDerivatives(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    order: *const fmi2Integer,
+    value: *mut fmi2Real,
+) -> fmi2Status {
+    with_instance(c, "fmi2GetRealOutputDerivatives", |instance| unsafe {
+        instance.get_output_derivatives(
+            array(vr, nvr, "vr")?,
+            array(order, nvr, "order")?,
+            array_mut(value, nvr, "value")?,
+        )
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2DoStep(
+    c: fmi2Component,
+    currentCommunicationPoint: fmi2Real,
+    communicationStepSize: fmi2Real,
+    _noSetFMUStatePriorToCurrentPoint: fmi2Boolean,
+) -> fmi2Status {
+    with_instance(c, "fmi2DoStep", |instance| {
+        instance.do_step(currentCommunicationPoint, communicationStepSize)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2CancelStep", |instance| instance.require(Call::CancelStep))
+}
+
+/// The status functions. fmi2DoStep never returns fmi2Pending, so the last step is
+/// always complete, no status is pending, and the FMU never asks to terminate.
+fn status_value<T>(
+    c: fmi2Component,
+    function: &str,
+    value: *mut T,
+    get: impl FnOnce(&Instance) -> CallResult<T>,
+) -> fmi2Status {
+    with_instance(c, function, |instance| {
+        instance.require(Call::GetStatus)?;
+        let slot = unsafe { out(value, "value")? };
+        *slot = get(instance)?;
+        Ok(())
+    })
+}
+
+fn not_provided<T>(kind: fmi2StatusKind) -> CallResult<T> {
+    Err(Rejection::discard(format!(
+        "status kind {kind} is not provided by this function"
+    )))
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
+    status_value(c, "fmi2GetStatus", value, |_| match s {
+        fmi2StatusKind_fmi2DoStepStatus => Ok(Status::Ok as fmi2Status),
+        _ => not_provided(s),
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
+    status_value(c, "fmi2GetRealStatus", value, |instance| match s {
+        fmi2StatusKind_fmi2LastSuccessfulTime => Ok(instance.time()),
+        _ => not_provided(s),
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetIntegerStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
+    status_value(c, "fmi2GetIntegerStatus", value, |_| not_provided(s))
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetBooleanStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
+    status_value(c, "fmi2GetBooleanStatus", value, |_| match s {
+        fmi2StatusKind_fmi2Terminated => Ok(0),
+        _ => not_provided(s),
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetStringStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2String,
+) -> fmi2Status {
+    status_value(c, "fmi2GetStringStatus", value, |_| not_provided(s))
+}
+
+// Every export has exactly the signature of its typedef in the official headers.
+const _: fmi2GetTypesPlatformTYPE = Some(fmi2GetTypesPlatform);
+const _: fmi2GetVersionTYPE = Some(fmi2GetVersion);
+const _: fmi2SetDebugLoggingTYPE = Some(fmi2SetDebugLogging);
+const _: fmi2InstantiateTYPE = Some(fmi2Instantiate);
+const _: fmi2FreeInstanceTYPE = Some(fmi2FreeInstance);
+const _: fmi2SetupExperimentTYPE = Some(fmi2SetupExperiment);
+const _: fmi2EnterInitializationModeTYPE = Some(fmi2EnterInitializationMode);
+const _: fmi2ExitInitializationModeTYPE = Some(fmi2ExitInitializationMode);
+const _: fmi2TerminateTYPE = Some(fmi2Terminate);
+const _: fmi2ResetTYPE = Some(fmi2Reset);
+const _: fmi2GetRealTYPE = Some(fmi2GetReal);
+const _: fmi2GetIntegerTYPE = Some(fmi2GetInteger);
+const _: fmi2GetBooleanTYPE = Some(fmi2GetBoolean);
+const _: fmi2GetStringTYPE = Some(fmi2GetString);
+const _: fmi2SetRealTYPE = Some(fmi2SetReal);
+const _: fmi2SetIntegerTYPE = Some(fmi2SetInteger);
+const _: fmi2SetBooleanTYPE = Some(fmi2SetBoolean);
+const _: fmi2SetStringTYPE = Some(fmi2SetString);
+const _: fmi2GetFMUstateTYPE = Some(fmi2GetFMUstate);
+const _: fmi2SetFMUstateTYPE = Some(fmi2SetFMUstate);
+const _: fmi2FreeFMUstateTYPE = Some(fmi2FreeFMUstate);
+const _: fmi2SerializedFMUstateSizeTYPE = Some(fmi2SerializedFMUstateSize);
+const _: fmi2SerializeFMUstateTYPE = Some(fmi2SerializeFMUstate);
+const _: fmi2DeSerializeFMUstateTYPE = Some(fmi2DeSerializeFMUstate);
+const _: fmi2GetDirectionalDerivativeTYPE = Some(fmi2GetDirectionalDerivative);
+const _: fmi2SetRealInputDerivativesTYPE = Some(fmi2SetRealInputDerivatives);
+const _: fmi2GetRealOutputDerivativesTYPE = Some(fmi2GetRealOutputDerivatives);
+const _: fmi2DoStepTYPE = Some(fmi2DoStep);
+const _: fmi2CancelStepTYPE = Some(fmi2CancelStep);
+const _: fmi2GetStatusTYPE = Some(fmi2GetStatus);
+const _: fmi2GetRealStatusTYPE = Some(fmi2GetRealStatus);
+const _: fmi2GetIntegerStatusTYPE = Some(fmi2GetIntegerStatus);
+const _: fmi2GetBooleanStatusTYPE = Some(fmi2GetBooleanStatus);
+const _: fmi2GetStringStatusTYPE = Some(fmi2GetStringStatus);

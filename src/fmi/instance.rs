@@ -1,0 +1,451 @@
+//! One FMU instance: the call sequence, variable access and FMU state around a [`Tire`].
+//! Everything here is safe Rust; `exports` turns C pointers into the slices used here.
+
+use crate::physics::{Input, ModelKind, Parameters, Tire};
+
+use super::logger::{Category, Logger};
+use super::snapshot::Snapshot;
+use super::state_machine::{Call, Phase};
+use super::status::{CallResult, Rejection, Status};
+use super::variables::{Causality, Role, VARIABLES, ValueType, Variable};
+
+/// How far `currentCommunicationPoint` may be from the instance's time, relative to
+/// `1 + |time|`: importers add step sizes in floating point.
+const TIME_TOLERANCE: f64 = 1e-9;
+
+pub struct Instance {
+    pub logger: Logger,
+    phase: Phase,
+    /// The parameters as set by the importer; checked together at initialisation.
+    parameters: Parameters,
+    tire: Tire,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+}
+
+/// The parameters the model description declares as start values.
+pub fn start_parameters() -> Result<Parameters, String> {
+    let mut parameters = Parameters::default();
+    for info in &VARIABLES {
+        let Some(start) = info.start else { continue };
+        match info.variable.role() {
+            Role::Parameter(p) => parameters.set(p, start).map_err(|e| e.to_string())?,
+            Role::ModelChoice => {
+                parameters.model = ModelKind::from_value(start as i64)
+                    .ok_or(format!("model start value {start} is not a TireLagModel"))?
+            }
+            Role::Input(_) | Role::Output(_) => {}
+        }
+    }
+    Ok(parameters)
+}
+
+/// A tire at the model description's start values.
+fn start_tire(parameters: &Parameters) -> Result<Tire, String> {
+    let mut tire = Tire::new(parameters.clone()).map_err(|e| e.to_string())?;
+    for info in &VARIABLES {
+        if let (Role::Input(input), Some(start)) = (info.variable.role(), info.start) {
+            tire.set_input(input, start);
+        }
+    }
+    Ok(tire)
+}
+
+fn lookup(value_reference: u32, expected: ValueType) -> CallResult<Variable> {
+    let variable = Variable::from_value_reference(value_reference)
+        .ok_or_else(|| Rejection::error(format!("unknown value reference {value_reference}")))?;
+    let info = variable.info();
+    if info.value_type != expected {
+        return Err(Rejection::error(format!(
+            "{} (value reference {value_reference}) is {:?}, not {:?}",
+            info.name, info.value_type, expected
+        )));
+    }
+    Ok(variable)
+}
+
+fn same_length(what: &str, a: usize, b: usize) -> CallResult {
+    if a == b {
+        Ok(())
+    } else {
+        Err(Rejection::error(format!(
+            "{what}: {a} value references but {b} values"
+        )))
+    }
+}
+
+impl Instance {
+    pub fn new(logger: Logger) -> Result<Self, String> {
+        let parameters = start_parameters()?;
+        let tire = start_tire(&parameters)?;
+        Ok(Self {
+            logger,
+            phase: Phase::Instantiated,
+            parameters,
+            tire,
+            time: 0.0,
+            start_time: 0.0,
+            stop_time: None,
+        })
+    }
+
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Marks the instance unusable after a panic was caught inside it.
+    pub fn poison(&mut self) {
+        self.phase = Phase::Fatal;
+    }
+
+    pub fn require(&self, call: Call) -> CallResult {
+        call.check(self.phase)
+    }
+
+    pub fn log(&self, status: Status, message: &str) {
+        self.logger.log(status, Category::for_status(status), message);
+    }
+
+    pub fn set_debug_logging(&mut self, on: bool, names: &[&str]) -> CallResult {
+        let categories = names
+            .iter()
+            .map(|name| {
+                Category::from_name(name).ok_or_else(|| {
+                    let known: Vec<_> = Category::ALL.iter().map(|c| c.name()).collect();
+                    Rejection::error(format!(
+                        "unknown log category '{name}'; known: {}",
+                        known.join(", ")
+                    ))
+                })
+            })
+            .collect::<CallResult<Vec<_>>>()?;
+        self.logger.set_categories(on, &categories);
+        Ok(())
+    }
+
+    pub fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>) -> CallResult {
+        if !start_time.is_finite() {
+            return Err(Rejection::error(format!("startTime {start_time} is not finite")));
+        }
+        if let Some(stop) = stop_time
+            && !(stop.is_finite() && stop >= start_time)
+        {
+            return Err(Rejection::error(format!(
+                "stopTime {stop} must be finite and >= startTime {start_time}"
+            )));
+        }
+        self.start_time = start_time;
+        self.time = start_time;
+        self.stop_time = stop_time;
+        Ok(())
+    }
+
+    pub fn enter_initialization_mode(&mut self) -> CallResult {
+        self.phase = Phase::InitializationMode;
+        Ok(())
+    }
+
+    pub fn exit_initialization_mode(&mut self) -> CallResult {
+        self.sync_tire()?;
+        self.phase = Phase::StepComplete;
+        Ok(())
+    }
+
+    pub fn terminate(&mut self) -> CallResult {
+        self.phase = Phase::Terminated;
+        Ok(())
+    }
+
+    /// Back to the start values, start time and the instantiated phase; logging stays.
+    pub fn reset(&mut self) -> CallResult {
+        let parameters = start_parameters().map_err(Rejection::error)?;
+        self.tire = start_tire(&parameters).map_err(Rejection::error)?;
+        self.parameters = parameters;
+        self.phase = Phase::Instantiated;
+        self.time = 0.0;
+        self.start_time = 0.0;
+        self.stop_time = None;
+        Ok(())
+    }
+
+    /// Rebuilds the tire when parameters changed since it was made, keeping the inputs.
+    /// Fails, naming the parameter, if the parameters do not fit together.
+    fn sync_tire(&mut self) -> CallResult {
+        if self.tire.parameters() == &self.parameters {
+            return Ok(());
+        }
+        let mut tire = Tire::new(self.parameters.clone())
+            .map_err(|e| Rejection::error(format!("inconsistent parameters: {e}")))?;
+        for input in Input::ALL {
+            tire.set_input(input, self.tire.input(input));
+            tire.set_input_rate(input, self.tire.input_rate(input));
+        }
+        self.tire = tire;
+        Ok(())
+    }
+
+    fn real_value(&mut self, variable: Variable) -> CallResult<f64> {
+        Ok(match variable.role() {
+            Role::Input(input) => self.tire.input(input),
+            Role::Parameter(p) => self.parameters.get(p),
+            Role::Output(output) => {
+                self.sync_tire()?;
+                self.tire.outputs()[output as usize]
+            }
+            Role::ModelChoice => unreachable!("lookup checked the type: model is an Enumeration"),
+        })
+    }
+
+    pub fn get_real(&mut self, value_references: &[u32], values: &mut [f64]) -> CallResult {
+        self.require(Call::GetValues)?;
+        same_length("values", value_references.len(), values.len())?;
+        for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
+            *value = self.real_value(lookup(vr, ValueType::Real)?)?;
+        }
+        Ok(())
+    }
+
+    /// Checks that `variable` may be set now to `value`, naming both if not.
+    fn check_settable(&self, variable: Variable, value: f64) -> CallResult {
+        let info = variable.info();
+        let refuse = |why: String| {
+            Err(Rejection::error(format!(
+                "cannot set {} = {value}: {why}",
+                info.name
+            )))
+        };
+        if !value.is_finite() {
+            return refuse("the value is not finite".into());
+        }
+        match info.causality {
+            Causality::Input => Ok(()),
+            Causality::Parameter if self.phase == Phase::StepComplete => refuse(
+                "it is a fixed parameter and the FMU is initialised; only inputs can change now".into(),
+            ),
+            Causality::Parameter => match variable.role() {
+                Role::Parameter(p) => p.check(value).map_err(|e| Rejection::error(e.to_string())),
+                _ => match ModelKind::from_value(value as i64) {
+                    Some(_) if value.fract() == 0.0 => Ok(()),
+                    _ => refuse(
+                        "the TireLagModel values are RLT = 1, DDT = 2, SecondOrder = 3, RingBody = 4".into(),
+                    ),
+                },
+            },
+            _ => refuse(format!("it is an {:?} and cannot be set", info.causality).to_lowercase()),
+        }
+    }
+
+    fn apply(&mut self, variable: Variable, value: f64) {
+        match variable.role() {
+            Role::Input(input) => self.tire.set_input(input, value),
+            Role::Parameter(p) => self.parameters.set(p, value).expect("checked by check_settable"),
+            Role::ModelChoice => {
+                self.parameters.model = ModelKind::from_value(value as i64).expect("checked")
+            }
+            Role::Output(_) => unreachable!("outputs are refused by check_settable"),
+        }
+    }
+
+    /// Sets values all together: if any one is refused, none is set.
+    fn set_values(&mut self, expected: ValueType, refs: &[u32], values: &[f64]) -> CallResult {
+        self.require(Call::SetValues)?;
+        same_length("values", refs.len(), values.len())?;
+        let mut checked = Vec::with_capacity(refs.len());
+        for (&vr, &value) in refs.iter().zip(values) {
+            let variable = lookup(vr, expected)?;
+            self.check_settable(variable, value)?;
+            checked.push((variable, value));
+        }
+        for (variable, value) in checked {
+            self.apply(variable, value);
+        }
+        Ok(())
+    }
+
+    pub fn set_real(&mut self, value_references: &[u32], values: &[f64]) -> CallResult {
+        self.set_values(ValueType::Real, value_references, values)
+    }
+
+    pub fn get_integer(&mut self, value_references: &[u32], values: &mut [i32]) -> CallResult {
+        self.require(Call::GetValues)?;
+        same_length("values", value_references.len(), values.len())?;
+        for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
+            lookup(vr, ValueType::Enumeration)?;
+            *value = self.parameters.model as i32;
+        }
+        Ok(())
+    }
+
+    pub fn set_integer(&mut self, value_references: &[u32], values: &[i32]) -> CallResult {
+        let values: Vec<f64> = values.iter().map(|&v| f64::from(v)).collect();
+        self.set_values(ValueType::Enumeration, value_references, &values)
+    }
+
+    /// fmi2Get/SetBoolean and fmi2Get/SetString: this FMU has no such variables.
+    pub fn no_variables_of_type(&self, call: Call, value_references: &[u32]) -> CallResult {
+        self.require(call)?;
+        match value_references.first() {
+            None => Ok(()),
+            Some(vr) => Err(Rejection::error(format!(
+                "this FMU has no variables of that type (value reference {vr})"
+            ))),
+        }
+    }
+
+    pub fn do_step(&mut self, communication_point: f64, step_size: f64) -> CallResult {
+        self.require(Call::DoStep)?;
+        let tolerance = TIME_TOLERANCE * (1.0 + self.time.abs());
+        if !((communication_point - self.time).abs() <= tolerance) {
+            return Err(Rejection::error(format!(
+                "currentCommunicationPoint {communication_point} s is not the FMU's time {} s",
+                self.time
+            )));
+        }
+        if !(step_size > 0.0 && step_size.is_finite()) {
+            return Err(Rejection::error(format!(
+                "communicationStepSize {step_size} s must be finite and > 0"
+            )));
+        }
+        let end = communication_point + step_size;
+        if let Some(stop) = self.stop_time
+            && end > stop + TIME_TOLERANCE * (1.0 + stop.abs())
+        {
+            return Err(Rejection::error(format!(
+                "the step ends at {end} s, past stopTime {stop} s"
+            )));
+        }
+        self.tire
+            .step(step_size)
+            .map_err(|e| Rejection::error(e.to_string()))?;
+        self.time = end;
+        Ok(())
+    }
+
+    pub fn set_input_derivatives(&mut self, refs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
+        self.require(Call::SetInputDerivatives)?;
+        same_length("values", refs.len(), values.len())?;
+        same_length("orders", refs.len(), orders.len())?;
+        let mut checked = Vec::with_capacity(refs.len());
+        for ((&vr, &order), &value) in refs.iter().zip(orders).zip(values) {
+            let variable = lookup(vr, ValueType::Real)?;
+            let Role::Input(input) = variable.role() else {
+                return Err(Rejection::error(format!(
+                    "{} is not an input; only inputs have derivatives",
+                    variable.name()
+                )));
+            };
+            if order != 1 {
+                return Err(Rejection::error(format!(
+                    "derivative order {order} of {} is not supported: the maximum is 1",
+                    variable.name()
+                )));
+            }
+            if !value.is_finite() {
+                return Err(Rejection::error(format!(
+                    "cannot set d{}/dt = {value}: not finite",
+                    variable.name()
+                )));
+            }
+            checked.push((input, value));
+        }
+        for (input, value) in checked {
+            self.tire.set_input_rate(input, value);
+        }
+        Ok(())
+    }
+
+    pub fn get_output_derivatives(&mut self, refs: &[u32], orders: &[i32], values: &mut [f64]) -> CallResult {
+        self.require(Call::GetOutputDerivatives)?;
+        same_length("values", refs.len(), values.len())?;
+        same_length("orders", refs.len(), orders.len())?;
+        let rates = self.tire.output_rates();
+        for ((&vr, &order), value) in refs.iter().zip(orders).zip(values.iter_mut()) {
+            let variable = lookup(vr, ValueType::Real)?;
+            let Role::Output(output) = variable.role() else {
+                return Err(Rejection::error(format!("{} is not an output", variable.name())));
+            };
+            if order != 1 {
+                return Err(Rejection::error(format!(
+                    "derivative order {order} of {} is not provided: maxOutputDerivativeOrder is 1",
+                    variable.name()
+                )));
+            }
+            *value = rates[output as usize];
+        }
+        Ok(())
+    }
+
+    /// `dv_unknown = (d unknowns / d knowns) dv_known`, unknowns outputs, knowns inputs.
+    pub fn directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        result: &mut [f64],
+    ) -> CallResult {
+        self.require(Call::GetDirectionalDerivative)?;
+        same_length("dvKnown", knowns.len(), seed.len())?;
+        same_length("dvUnknown", unknowns.len(), result.len())?;
+        self.sync_tire()?;
+        let outputs = unknowns
+            .iter()
+            .map(|&vr| match lookup(vr, ValueType::Real)?.role() {
+                Role::Output(output) => Ok(output),
+                _ => Err(Rejection::error(format!("unknown {vr} is not an output"))),
+            })
+            .collect::<CallResult<Vec<_>>>()?;
+        let mut total = crate::physics::OutputVector::zeros();
+        for (&vr, &dv) in knowns.iter().zip(seed) {
+            let Role::Input(input) = lookup(vr, ValueType::Real)?.role() else {
+                return Err(Rejection::error(format!("known {vr} is not an input")));
+            };
+            if !dv.is_finite() {
+                return Err(Rejection::error(format!(
+                    "seed {dv} for known {vr} is not finite"
+                )));
+            }
+            total += self.tire.output_sensitivity(input) * dv;
+        }
+        for (value, output) in result.iter_mut().zip(outputs) {
+            *value = total[output as usize];
+        }
+        Ok(())
+    }
+
+    pub fn snapshot(&self) -> CallResult<Snapshot> {
+        self.require(Call::GetFmuState)?;
+        Ok(Snapshot {
+            phase: self.phase,
+            time: self.time,
+            start_time: self.start_time,
+            stop_time: self.stop_time,
+            parameters: self.parameters.clone(),
+            inputs: Input::ALL.map(|i| self.tire.input(i)),
+            input_rates: Input::ALL.map(|i| self.tire.input_rate(i)),
+            states: self.tire.states().iter().copied().collect(),
+        })
+    }
+
+    pub fn restore(&mut self, snapshot: &Snapshot) -> CallResult {
+        self.require(Call::SetFmuState)?;
+        let mut tire = Tire::new(snapshot.parameters.clone())
+            .map_err(|e| Rejection::error(format!("the FMU state holds bad parameters: {e}")))?;
+        tire.set_states(&snapshot.states).map_err(Rejection::error)?;
+        for (i, input) in Input::ALL.into_iter().enumerate() {
+            tire.set_input(input, snapshot.inputs[i]);
+            tire.set_input_rate(input, snapshot.input_rates[i]);
+        }
+        self.tire = tire;
+        self.parameters = snapshot.parameters.clone();
+        self.phase = snapshot.phase;
+        self.time = snapshot.time;
+        self.start_time = snapshot.start_time;
+        self.stop_time = snapshot.stop_time;
+        Ok(())
+    }
+}

@@ -1,0 +1,131 @@
+//! Log messages to the importer's logger callback, by FMI log category.
+
+use std::ffi::CString;
+
+use super::status::Status;
+use super::sys::{fmi2CallbackLogger, fmi2ComponentEnvironment, fmi2Status};
+
+/// The log categories declared in the model description.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Category {
+    /// Calls that returned fmi2Error.
+    StatusError,
+    /// Calls that returned fmi2Warning.
+    StatusWarning,
+    /// Every call and its arguments.
+    All,
+}
+
+impl Category {
+    pub const ALL: [Category; 3] = [Category::StatusError, Category::StatusWarning, Category::All];
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Category::StatusError => "logStatusError",
+            Category::StatusWarning => "logStatusWarning",
+            Category::All => "logAll",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    pub fn for_status(status: Status) -> Self {
+        match status {
+            Status::Error | Status::Fatal => Category::StatusError,
+            Status::Warning | Status::Discard => Category::StatusWarning,
+            Status::Ok => Category::All,
+        }
+    }
+}
+
+/// The importer's logger with the categories switched on.
+#[derive(Debug)]
+pub struct Logger {
+    callback: fmi2CallbackLogger,
+    environment: fmi2ComponentEnvironment,
+    instance_name: CString,
+    enabled: [bool; 3],
+}
+
+// SAFETY: the logger callback and its environment belong to the importer, which the FMI
+// standard makes responsible for calling an instance from one thread at a time.
+unsafe impl Send for Logger {}
+
+impl Logger {
+    /// Errors are always logged; warnings and call traces when `logging_on`.
+    pub fn new(
+        callback: fmi2CallbackLogger,
+        environment: fmi2ComponentEnvironment,
+        instance_name: CString,
+        logging_on: bool,
+    ) -> Self {
+        Self {
+            callback,
+            environment,
+            instance_name,
+            enabled: [true, logging_on, logging_on],
+        }
+    }
+
+    pub fn instance_name(&self) -> &str {
+        self.instance_name
+            .to_str()
+            .unwrap_or("(instance name is not UTF-8)")
+    }
+
+    pub fn enabled(&self, category: Category) -> bool {
+        self.enabled[category as usize]
+    }
+
+    /// fmi2SetDebugLogging: no categories means all of them.
+    pub fn set_categories(&mut self, on: bool, categories: &[Category]) {
+        if categories.is_empty() {
+            self.enabled = [on; 3];
+        } else {
+            for &c in categories {
+                self.enabled[c as usize] = on;
+            }
+        }
+    }
+
+    pub fn log(&self, status: Status, category: Category, message: &str) {
+        if self.enabled(category) {
+            send(
+                self.callback,
+                self.environment,
+                &self.instance_name,
+                status,
+                category,
+                message,
+            );
+        }
+    }
+}
+
+/// Calls the importer's logger with the message as data ("%s"), never as a format.
+pub fn send(
+    callback: fmi2CallbackLogger,
+    environment: fmi2ComponentEnvironment,
+    instance_name: &CString,
+    status: Status,
+    category: Category,
+    message: &str,
+) {
+    let Some(callback) = callback else { return };
+    let message = CString::new(message.replace('\0', " ")).unwrap_or_default();
+    let category = CString::new(category.name()).unwrap_or_default();
+    // SAFETY: the importer gave this callback for exactly this call; every string is a
+    // valid NUL-terminated C string that outlives the call.
+    unsafe {
+        callback(
+            environment,
+            instance_name.as_ptr(),
+            status as fmi2Status,
+            category.as_ptr(),
+            c"%s".as_ptr(),
+            message.as_ptr(),
+        )
+    }
+}

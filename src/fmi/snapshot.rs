@@ -1,0 +1,224 @@
+//! The FMU state: everything needed to continue a simulation, as a self-contained,
+//! versioned and checksummed byte string (no pointers), so that a state serialized in
+//! one process continues bit-identically in another.
+//!
+//! Layout (little endian): magic `TIRELAG\0`, format version u32, GUID (u32 length +
+//! bytes), phase u8, model u8, time, start time, stop-time flag u8, stop time, the
+//! parameters, inputs and input rates (f64 each), state count u32 and states (f64 each),
+//! then an FNV-1a 64 checksum of everything before it.
+
+use crate::physics::{Input, ModelKind, Parameter, Parameters};
+
+use super::state_machine::Phase;
+use super::variables::GUID;
+
+const MAGIC: &[u8; 8] = b"TIRELAG\0";
+const FORMAT_VERSION: u32 = 1;
+
+/// A complete copy of an instance's simulation state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot {
+    pub phase: Phase,
+    pub time: f64,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+    pub parameters: Parameters,
+    pub inputs: [f64; Input::COUNT],
+    pub input_rates: [f64; Input::COUNT],
+    pub states: Vec<f64>,
+}
+
+fn checksum(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, &b| {
+        (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+impl Snapshot {
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(256);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(GUID.len() as u32).to_le_bytes());
+        out.extend_from_slice(GUID.as_bytes());
+        out.push(self.phase as u8);
+        out.push(self.parameters.model as u8);
+        let stop_defined = self.stop_time.is_some();
+        let mut reals = vec![self.time, self.start_time];
+        out.push(u8::from(stop_defined));
+        reals.push(self.stop_time.unwrap_or(0.0));
+        reals.extend(Parameter::ALL.iter().map(|&p| self.parameters.get(p)));
+        reals.extend_from_slice(&self.inputs);
+        reals.extend_from_slice(&self.input_rates);
+        for value in reals {
+            out.extend_from_slice(&value.to_le_bytes());
+        }
+        out.extend_from_slice(&(self.states.len() as u32).to_le_bytes());
+        for value in &self.states {
+            out.extend_from_slice(&value.to_le_bytes());
+        }
+        let sum = checksum(&out);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// Reads a serialized state, checking everything: a corrupt, truncated or foreign
+    /// byte string gives an error that says what is wrong.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
+        if bytes.len() < MAGIC.len() + 8 || &bytes[..MAGIC.len()] != MAGIC {
+            return Err("not a TireLag FMU state (wrong magic bytes)".into());
+        }
+        let (body, sum) = bytes.split_at(bytes.len() - 8);
+        let expected = u64::from_le_bytes(sum.try_into().expect("8 bytes"));
+        if checksum(body) != expected {
+            return Err("the FMU state is corrupt or truncated (checksum mismatch)".into());
+        }
+        let mut r = Reader {
+            bytes: body,
+            at: MAGIC.len(),
+        };
+        let version = r.u32()?;
+        if version != FORMAT_VERSION {
+            return Err(format!(
+                "FMU state format version {version}; this FMU reads version {FORMAT_VERSION}"
+            ));
+        }
+        let guid_len = r.u32()? as usize;
+        let guid = r.take(guid_len)?;
+        if guid != GUID.as_bytes() {
+            return Err(format!(
+                "the FMU state belongs to another FMU (GUID {}, expected {GUID})",
+                String::from_utf8_lossy(guid)
+            ));
+        }
+        let phase_code = r.u8()?;
+        let phase = Phase::from_code(phase_code).ok_or(format!("unknown phase code {phase_code}"))?;
+        let model_code = r.u8()?;
+        let model =
+            ModelKind::from_value(i64::from(model_code)).ok_or(format!("unknown model {model_code}"))?;
+        let stop_defined = r.u8()? != 0;
+        let time = r.f64()?;
+        let start_time = r.f64()?;
+        let stop_time = r.f64()?;
+        let mut parameters = Parameters::default().with_model(model);
+        for p in Parameter::ALL {
+            parameters.set(p, r.f64()?).map_err(|e| e.to_string())?;
+        }
+        parameters.validate().map_err(|e| e.to_string())?;
+        let mut inputs = [0.0; Input::COUNT];
+        let mut input_rates = [0.0; Input::COUNT];
+        for value in inputs.iter_mut().chain(input_rates.iter_mut()) {
+            *value = r.f64()?;
+        }
+        let count = r.u32()? as usize;
+        let expected_count = model.equations().state_names().len();
+        if count != expected_count {
+            return Err(format!(
+                "{count} states for the {} model, which has {expected_count}",
+                model.name()
+            ));
+        }
+        let states = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
+        if r.at != body.len() {
+            return Err(format!(
+                "{} unexpected bytes at the end of the FMU state",
+                body.len() - r.at
+            ));
+        }
+        let all_finite = [time, start_time, stop_time]
+            .iter()
+            .chain(&inputs)
+            .chain(&input_rates)
+            .chain(&states)
+            .all(|v| v.is_finite());
+        if !all_finite {
+            return Err("the FMU state holds a value that is not finite".into());
+        }
+        Ok(Snapshot {
+            phase,
+            time,
+            start_time,
+            stop_time: stop_defined.then_some(stop_time),
+            parameters,
+            inputs,
+            input_rates,
+            states,
+        })
+    }
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        let end = self.at.checked_add(n).filter(|&end| end <= self.bytes.len());
+        let end = end.ok_or("the FMU state is truncated")?;
+        let slice = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(slice)
+    }
+    fn u8(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Snapshot {
+        Snapshot {
+            phase: Phase::StepComplete,
+            time: 1.25,
+            start_time: 0.0,
+            stop_time: Some(10.0),
+            parameters: Parameters::default().with_model(ModelKind::RingBody),
+            inputs: [1.0, -0.2, 0.1, 0.05, 40000.0],
+            input_rates: [0.0, 0.5, 0.0, 0.0, 0.0],
+            states: vec![1e-3, -2e-3, 0.1, 4e-4, 5e-5, -0.2],
+        }
+    }
+
+    #[test]
+    fn round_trips_bit_for_bit() {
+        let s = sample();
+        let bytes = s.to_bytes();
+        assert_eq!(Snapshot::from_bytes(&bytes).unwrap(), s);
+        assert_eq!(Snapshot::from_bytes(&bytes).unwrap().to_bytes(), bytes);
+    }
+
+    #[test]
+    fn rejects_every_truncation_and_every_flipped_byte() {
+        let bytes = sample().to_bytes();
+        for len in 0..bytes.len() {
+            assert!(Snapshot::from_bytes(&bytes[..len]).is_err(), "truncated to {len}");
+        }
+        for i in 0..bytes.len() {
+            let mut corrupt = bytes.clone();
+            corrupt[i] ^= 0x10;
+            assert!(Snapshot::from_bytes(&corrupt).is_err(), "byte {i} flipped");
+        }
+    }
+
+    #[test]
+    fn names_the_problem() {
+        assert!(
+            Snapshot::from_bytes(b"hello world, not a state")
+                .unwrap_err()
+                .contains("magic")
+        );
+        let mut bytes = sample().to_bytes();
+        let n = bytes.len();
+        bytes[n - 9] ^= 1;
+        assert!(Snapshot::from_bytes(&bytes).unwrap_err().contains("checksum"));
+    }
+}

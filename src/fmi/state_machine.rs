@@ -1,0 +1,115 @@
+//! The FMI 2.0 Co-Simulation call sequence as an explicit state machine.
+//!
+//! A call that is not allowed in the current phase is rejected with fmi2Error and a
+//! message naming the phase; a rejected call changes nothing.
+
+use super::status::{CallResult, Rejection};
+
+/// Where an instance is in its life (FMI 2.0 section 4.2.4). Steps always complete
+/// before fmi2DoStep returns, so there is no pending phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    Instantiated = 0,
+    InitializationMode = 1,
+    StepComplete = 2,
+    Terminated = 3,
+    /// A panic was caught inside the FMU: only fmi2FreeInstance and fmi2Reset are allowed.
+    Fatal = 4,
+}
+
+impl Phase {
+    pub const ALL: [Phase; 5] = [
+        Phase::Instantiated,
+        Phase::InitializationMode,
+        Phase::StepComplete,
+        Phase::Terminated,
+        Phase::Fatal,
+    ];
+
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| *p as u8 == code)
+    }
+
+    const fn bit(self) -> u8 {
+        1 << self as u8
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Phase::Instantiated => "instantiated",
+            Phase::InitializationMode => "initialization mode",
+            Phase::StepComplete => "step mode",
+            Phase::Terminated => "terminated",
+            Phase::Fatal => "fatal error",
+        }
+    }
+}
+
+/// The kinds of call whose allowed phases differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Call {
+    SetDebugLogging,
+    SetupExperiment,
+    EnterInitializationMode,
+    ExitInitializationMode,
+    Terminate,
+    Reset,
+    GetValues,
+    /// Setting parameters (fixed) or inputs; which of them is checked per variable.
+    SetValues,
+    GetFmuState,
+    SetFmuState,
+    GetDirectionalDerivative,
+    SetInputDerivatives,
+    GetOutputDerivatives,
+    DoStep,
+    CancelStep,
+    GetStatus,
+}
+
+const INSTANTIATED: u8 = Phase::Instantiated.bit();
+const INIT: u8 = Phase::InitializationMode.bit();
+const STEP: u8 = Phase::StepComplete.bit();
+const TERMINATED: u8 = Phase::Terminated.bit();
+const FATAL: u8 = Phase::Fatal.bit();
+const NONE: u8 = 0;
+
+impl Call {
+    /// The phases in which this call is allowed.
+    const fn allowed(self) -> u8 {
+        match self {
+            Call::SetDebugLogging => INSTANTIATED | INIT | STEP | TERMINATED,
+            Call::SetupExperiment | Call::EnterInitializationMode => INSTANTIATED,
+            Call::ExitInitializationMode => INIT,
+            Call::Terminate | Call::DoStep | Call::GetStatus => STEP,
+            Call::Reset => INSTANTIATED | INIT | STEP | TERMINATED | FATAL,
+            Call::GetValues | Call::GetDirectionalDerivative => INIT | STEP | TERMINATED,
+            Call::SetValues | Call::SetInputDerivatives => INSTANTIATED | INIT | STEP,
+            Call::GetFmuState | Call::SetFmuState => INSTANTIATED | INIT | STEP | TERMINATED,
+            Call::GetOutputDerivatives => STEP | TERMINATED,
+            // fmi2DoStep never returns fmi2Pending, so there is never a step to cancel.
+            Call::CancelStep => NONE,
+        }
+    }
+
+    /// Ok if `self` may be called in `phase`, else the error that says why not.
+    pub fn check(self, phase: Phase) -> CallResult {
+        if self.allowed() & phase.bit() != 0 {
+            return Ok(());
+        }
+        let allowed: Vec<&str> = Phase::ALL
+            .iter()
+            .filter(|p| self.allowed() & p.bit() != 0)
+            .map(|p| p.name())
+            .collect();
+        let expected = if allowed.is_empty() {
+            "never (no asynchronous step is ever pending)".to_owned()
+        } else {
+            allowed.join(", ")
+        };
+        Err(Rejection::error(format!(
+            "this call is not allowed in {}; it is allowed in {expected}",
+            phase.name()
+        )))
+    }
+}

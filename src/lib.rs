@@ -1,0 +1,9 @@
+//! TireLag: the transient (lagged) forces of one tire, as an FMI 2.0 Co-Simulation FMU.
+//!
+//! - [`physics`]: the tire-lag models as small linear state-space systems, stepped exactly.
+//!   Plain Rust, no FFI, usable and testable on its own.
+//! - [`fmi`]: the thin FMI 2.0 layer: C ABI, call-sequence state machine, value
+//!   references, logging and FMU state. It knows the physics only through [`physics::Tire`].
+
+pub mod fmi;
+pub mod physics;

@@ -1,0 +1,22 @@
+//! The tire-lag physics: plain Rust, no FFI, nothing about FMI.
+//!
+//! Conventions (SPEC section 2): wheel frame W with x forward along the wheel heading,
+//! y to the left, z up. `rho = |vx|` is the rolling speed; every relaxation term uses it,
+//! so reverse driving is symmetric and no equation divides by the speed. Forces and
+//! moments are those the tire applies to the wheel hub, in N and N.m.
+//!
+//! Each model ([`models`]) is a linear time-invariant system for a given `vx`:
+//! `dx/dt = A x + B u`, `y = C x + D u` with `u = [vy, steerRate, vsx]`. The [`Tire`]
+//! steps it exactly (matrix exponential) for inputs held or ramped over a step.
+
+pub mod linear;
+pub mod models;
+pub mod parameters;
+pub mod signals;
+pub mod tire;
+
+pub use linear::{LinearSystem, StepMatrices};
+pub use models::ModelKind;
+pub use parameters::{Parameter, ParameterError, Parameters};
+pub use signals::{DrivingInput, Input, Output, OutputVector};
+pub use tire::Tire;

@@ -1,0 +1,64 @@
+//! DDT, the dynamic-deflection tire (Koo & Tan eqs 1-12).
+//! States: yaw deflection uPsi, lateral deflection uY, longitudinal deflection uX.
+//! `duPsi/dt = r - (rho/sigmaPsi) uPsi` (the yaw lag acts on the steer angle, eq 11),
+//! `duY/dt = vy + vx uPsi - (rho/sigmaY) uY`, `Fy = -(C_y uY + D_lat duY/dt)`,
+//! `Mz = -(C_yaw uPsi + D_yaw duPsi/dt) - trail Fy`; longitudinally as RLT plus D_long.
+//! The tread dampers keep it damped at standstill.
+
+use nalgebra::DVector;
+
+use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
+use crate::physics::linear::{LinearSystem, SystemBuilder};
+use crate::physics::parameters::{Parameter, Parameters};
+use crate::physics::signals::{DrivingInput, Output};
+
+pub struct Ddt;
+
+const YAW: usize = 0;
+const LATERAL: usize = 1;
+const LONGITUDINAL: usize = 2;
+
+fn longitudinal(p: &Parameters) -> Relaxation {
+    Relaxation::longitudinal(p, LONGITUDINAL, p.get(Parameter::LongitudinalDamping))
+}
+
+impl TireLagModel for Ddt {
+    fn state_names(&self) -> &'static [&'static str] {
+        &["uPsi", "uY", "uX"]
+    }
+
+    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> LinearSystem {
+        let mut b = SystemBuilder::new(3);
+        let yaw_stiffness = p.get(Parameter::YawStiffness);
+        let yaw_damping = p.get(Parameter::YawDamping);
+        let lateral_damping = p.get(Parameter::LateralDamping);
+
+        b.rate(
+            YAW,
+            &[(YAW, -rho / p.get(Parameter::YawRelaxationLength))],
+            &[(DrivingInput::SteerRate, 1.0)],
+        );
+        b.rate(
+            LATERAL,
+            &[(YAW, vx), (LATERAL, -rho / p.lateral_relaxation_length())],
+            &[(DrivingInput::Vy, 1.0)],
+        );
+        b.output(Output::Fy, &[(LATERAL, -p.lateral_stiffness())], &[]);
+        b.output_rate(Output::Fy, LATERAL, -lateral_damping);
+        b.output(Output::DeflY, &[(LATERAL, 1.0)], &[]);
+        b.output(Output::Mz, &[(YAW, -yaw_stiffness)], &[]);
+        b.output_rate(Output::Mz, YAW, -yaw_damping);
+        b.output(Output::DeflPsi, &[(YAW, 1.0)], &[]);
+
+        longitudinal(p).write(&mut b, rho);
+        write_rolling_moment_from_fx(&mut b, p);
+        write_common_outputs(&mut b, p);
+        b.finish()
+    }
+
+    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+        0.5 * p.get(Parameter::YawStiffness) * x[YAW].powi(2)
+            + 0.5 * p.lateral_stiffness() * x[LATERAL].powi(2)
+            + longitudinal(p).energy(x)
+    }
+}

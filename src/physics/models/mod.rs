@@ -1,0 +1,211 @@
+//! The four tire-lag models. Each is a small file that writes its equations (SPEC
+//! section 4) into a [`LinearSystem`] for a given speed; the [`Tire`](super::Tire) does
+//! the rest. Shared pieces (relaxation-length lag, contact mass) live here.
+
+mod ddt;
+mod ring_body;
+mod rlt;
+mod second_order;
+
+use nalgebra::DVector;
+
+use super::linear::{LinearSystem, SystemBuilder};
+use super::parameters::{Parameter, Parameters};
+use super::signals::{DrivingInput, Output};
+
+/// Which tire-lag model the tire uses; the values are those of the FMI enumeration
+/// `TireLagModel`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ModelKind {
+    Rlt = 1,
+    Ddt = 2,
+    SecondOrder = 3,
+    RingBody = 4,
+}
+
+impl ModelKind {
+    pub const ALL: [ModelKind; 4] = [
+        ModelKind::Rlt,
+        ModelKind::Ddt,
+        ModelKind::SecondOrder,
+        ModelKind::RingBody,
+    ];
+
+    pub fn from_value(value: i64) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| *m as i64 == value)
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            ModelKind::Rlt => "RLT",
+            ModelKind::Ddt => "DDT",
+            ModelKind::SecondOrder => "SecondOrder",
+            ModelKind::RingBody => "RingBody",
+        }
+    }
+
+    /// The model's equations.
+    pub fn equations(self) -> &'static dyn TireLagModel {
+        match self {
+            ModelKind::Rlt => &rlt::Rlt,
+            ModelKind::Ddt => &ddt::Ddt,
+            ModelKind::SecondOrder => &second_order::SecondOrder,
+            ModelKind::RingBody => &ring_body::RingBody,
+        }
+    }
+}
+
+/// A tire-lag model: linear in its states and in `u = [vy, steerRate, vsx]`, with
+/// matrices that depend on the speed.
+pub trait TireLagModel: Sync {
+    /// Names of the states, in state-vector order.
+    fn state_names(&self) -> &'static [&'static str];
+
+    /// The state-space system at longitudinal speed `vx` and rolling speed `rho`.
+    /// `rho` is `|vx|`; it is passed separately so that the derivative of the system with
+    /// respect to each can be taken exactly (the matrices are affine in both).
+    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> LinearSystem;
+
+    /// Mechanical energy stored in the tire (springs and moving masses), J.
+    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64;
+}
+
+/// First-order relaxation of a deflection `u` driven by a slip velocity:
+/// `du/dt = v - (rho/sigma) u`, force `-(stiffness u + damping du/dt)` into `force`.
+struct Relaxation {
+    state: usize,
+    input: DrivingInput,
+    relaxation_length: f64,
+    stiffness: f64,
+    damping: f64,
+    force: Output,
+    deflection: Output,
+}
+
+impl Relaxation {
+    fn write(&self, b: &mut SystemBuilder, rho: f64) {
+        let u = self.state;
+        b.rate(u, &[(u, -rho / self.relaxation_length)], &[(self.input, 1.0)]);
+        b.output(self.force, &[(u, -self.stiffness)], &[]);
+        b.output_rate(self.force, u, -self.damping);
+        b.output(self.deflection, &[(u, 1.0)], &[]);
+    }
+
+    /// The longitudinal relaxation of RLT, DDT and SecondOrder, with tread damping.
+    fn longitudinal(p: &Parameters, state: usize, damping: f64) -> Self {
+        Relaxation {
+            state,
+            input: DrivingInput::Vsx,
+            relaxation_length: p.longitudinal_relaxation_length(),
+            stiffness: p.longitudinal_stiffness(),
+            damping,
+            force: Output::Fx,
+            deflection: Output::DeflX,
+        }
+    }
+
+    fn energy(&self, x: &DVector<f64>) -> f64 {
+        0.5 * self.stiffness * x[self.state].powi(2)
+    }
+}
+
+/// A mass between a carcass spring-damper (to the wheel) and a lagged tread spring (to
+/// the ground), moving with the slip velocity `v` of the wheel (Kim eqs 1-5, made
+/// standstill-safe by the tread state):
+/// `d offset/dt = w - v`, `d tread/dt = w - (rho/sigmaTread) tread`,
+/// `m dw/dt = -kT tread - k offset - d (w - v)`; hub force `k offset + d (w - v)`.
+struct ContactMass {
+    /// State indices of the offset from the wheel, the tread deflection, the velocity.
+    offset: usize,
+    tread: usize,
+    velocity: usize,
+    input: DrivingInput,
+    mass: f64,
+    carcass_stiffness: f64,
+    carcass_damping: f64,
+    tread_stiffness: f64,
+    tread_relaxation_length: f64,
+}
+
+impl ContactMass {
+    fn write(&self, b: &mut SystemBuilder, rho: f64) {
+        let (offset, tread, w, v) = (self.offset, self.tread, self.velocity, self.input);
+        let m = self.mass;
+        b.rate(offset, &[(w, 1.0)], &[(v, -1.0)]);
+        b.rate(
+            tread,
+            &[(w, 1.0), (tread, -rho / self.tread_relaxation_length)],
+            &[],
+        );
+        b.rate(
+            w,
+            &[
+                (tread, -self.tread_stiffness / m),
+                (offset, -self.carcass_stiffness / m),
+                (w, -self.carcass_damping / m),
+            ],
+            &[(v, self.carcass_damping / m)],
+        );
+    }
+
+    /// The carcass force on the hub, `k offset + d (w - v)`, added to `output` times `sign`.
+    fn carcass_force(&self, b: &mut SystemBuilder, output: Output, sign: f64) {
+        b.output(
+            output,
+            &[
+                (self.offset, sign * self.carcass_stiffness),
+                (self.velocity, sign * self.carcass_damping),
+            ],
+            &[(self.input, -sign * self.carcass_damping)],
+        );
+    }
+
+    /// Deflection of the wheel relative to the ground contact point: `tread - offset`.
+    fn deflection(&self, b: &mut SystemBuilder, output: Output) {
+        b.output(output, &[(self.tread, 1.0), (self.offset, -1.0)], &[]);
+    }
+
+    fn energy(&self, x: &DVector<f64>) -> f64 {
+        0.5 * (self.carcass_stiffness * x[self.offset].powi(2)
+            + self.tread_stiffness * x[self.tread].powi(2)
+            + self.mass * x[self.velocity].powi(2))
+    }
+
+    /// The lateral contact mass of SecondOrder and RingBody.
+    fn lateral(p: &Parameters, first_state: usize, mass: f64, damping: f64) -> Self {
+        ContactMass {
+            offset: first_state,
+            tread: first_state + 1,
+            velocity: first_state + 2,
+            input: DrivingInput::Vy,
+            mass,
+            carcass_stiffness: p.carcass_lateral_stiffness(),
+            carcass_damping: damping,
+            tread_stiffness: p.tread_lateral_stiffness(),
+            tread_relaxation_length: p.tread_relaxation_length(),
+        }
+    }
+}
+
+/// Rows every model shares: the pneumatic trail in Mz and the transient slips.
+fn write_common_outputs(b: &mut SystemBuilder, p: &Parameters) {
+    b.output_from(Output::Mz, Output::Fy, -p.get(Parameter::PneumaticTrail));
+    b.output_from(
+        Output::AlphaT,
+        Output::DeflY,
+        -1.0 / p.lateral_relaxation_length(),
+    );
+    b.output_from(
+        Output::KappaT,
+        Output::DeflX,
+        -1.0 / p.longitudinal_relaxation_length(),
+    );
+}
+
+/// `My = -Re Fx`: the rolling moment of the models whose Fx acts at the contact point.
+fn write_rolling_moment_from_fx(b: &mut SystemBuilder, p: &Parameters) {
+    b.output_from(Output::My, Output::Fx, -p.get(Parameter::RollingRadius));
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,69 @@
+//! RingBody (Park & Nikravesh): a rigid ring on the wheel with lateral and
+//! circumferential flexibility and inertia, joined to the ground by lagged tread springs.
+//! States: lateral (eta, uT, w) as SecondOrder with ringMass and ringDampingY;
+//! circumferential ring displacement xr, tread deflection uTx and ring slip velocity wx,
+//! with equivalent mass `ringInertia/Re^2`. Fx passes through the joint (`-kT_x uTx`);
+//! My passes through the ring spring-damper, `-Re (k_x xr + ringDampingX (wx - vsx))`.
+
+use nalgebra::DVector;
+
+use super::{ContactMass, TireLagModel, write_common_outputs};
+use crate::physics::linear::{LinearSystem, SystemBuilder};
+use crate::physics::parameters::{Parameter, Parameters};
+use crate::physics::signals::{DrivingInput, Output};
+
+pub struct RingBody;
+
+const LATERAL: usize = 0; // eta, uT, w
+const CIRCUMFERENTIAL: usize = 3; // xr, uTx, wx
+
+fn lateral(p: &Parameters) -> ContactMass {
+    ContactMass::lateral(
+        p,
+        LATERAL,
+        p.get(Parameter::RingMass),
+        p.get(Parameter::RingLateralDamping),
+    )
+}
+
+fn circumferential(p: &Parameters) -> ContactMass {
+    let rolling_radius = p.get(Parameter::RollingRadius);
+    ContactMass {
+        offset: CIRCUMFERENTIAL,
+        tread: CIRCUMFERENTIAL + 1,
+        velocity: CIRCUMFERENTIAL + 2,
+        input: DrivingInput::Vsx,
+        mass: p.get(Parameter::RingInertia) / (rolling_radius * rolling_radius),
+        carcass_stiffness: p.carcass_longitudinal_stiffness(),
+        carcass_damping: p.get(Parameter::RingCircumferentialDamping),
+        tread_stiffness: p.tread_longitudinal_stiffness(),
+        tread_relaxation_length: p.tread_relaxation_length(),
+    }
+}
+
+impl TireLagModel for RingBody {
+    fn state_names(&self) -> &'static [&'static str] {
+        &["eta", "uT", "w", "xr", "uTx", "wx"]
+    }
+
+    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> LinearSystem {
+        let mut b = SystemBuilder::new(6);
+        let contact = lateral(p);
+        contact.write(&mut b, rho);
+        contact.carcass_force(&mut b, Output::Fy, 1.0);
+        contact.deflection(&mut b, Output::DeflY);
+
+        let ring = circumferential(p);
+        ring.write(&mut b, rho);
+        b.output(Output::Fx, &[(ring.tread, -ring.tread_stiffness)], &[]);
+        ring.carcass_force(&mut b, Output::My, -p.get(Parameter::RollingRadius));
+        ring.deflection(&mut b, Output::DeflX);
+
+        write_common_outputs(&mut b, p);
+        b.finish()
+    }
+
+    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+        lateral(p).energy(x) + circumferential(p).energy(x)
+    }
+}

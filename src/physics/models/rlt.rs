@@ -1,0 +1,47 @@
+//! RLT, the relaxation-length tire (Koo & Tan eq 13; Kim eqs 8-10).
+//! States: lateral and longitudinal deflections uY, uX.
+//! `duY/dt = vy - (rho/sigmaY) uY`, `Fy = -C_y uY`; the same longitudinally.
+//! At standstill it is an undamped spring of stiffness `C_y = Calpha/sigmaY`.
+
+use nalgebra::DVector;
+
+use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
+use crate::physics::linear::{LinearSystem, SystemBuilder};
+use crate::physics::parameters::Parameters;
+use crate::physics::signals::{DrivingInput, Output};
+
+pub struct Rlt;
+
+const LATERAL: usize = 0;
+const LONGITUDINAL: usize = 1;
+
+fn lateral(p: &Parameters) -> Relaxation {
+    Relaxation {
+        state: LATERAL,
+        input: DrivingInput::Vy,
+        relaxation_length: p.lateral_relaxation_length(),
+        stiffness: p.lateral_stiffness(),
+        damping: 0.0,
+        force: Output::Fy,
+        deflection: Output::DeflY,
+    }
+}
+
+impl TireLagModel for Rlt {
+    fn state_names(&self) -> &'static [&'static str] {
+        &["uY", "uX"]
+    }
+
+    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> LinearSystem {
+        let mut b = SystemBuilder::new(2);
+        lateral(p).write(&mut b, rho);
+        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, rho);
+        write_rolling_moment_from_fx(&mut b, p);
+        write_common_outputs(&mut b, p);
+        b.finish()
+    }
+
+    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+        lateral(p).energy(x) + Relaxation::longitudinal(p, LONGITUDINAL, 0.0).energy(x)
+    }
+}

@@ -1,0 +1,365 @@
+"""Independent reference implementation of the TireLag models (SPEC sections 3-5).
+
+Everything here is written from /work/shared/SPEC.md only:
+
+* ``parameters()``    -- the default parameter set (the modelDescription start values),
+* ``derived()``       -- the derived stiffnesses of SPEC section 3,
+* ``system()``        -- A, B, C, D of SPEC section 4 for one model at one speed,
+* ``zoh()/foh()``     -- exact discretisation by the matrix exponential of an augmented matrix,
+* ``simulate()``      -- exact stepping of piecewise-constant or piecewise-linear inputs,
+* ``transfer()``      -- the transfer functions of SPEC section 5, evaluated at complex s
+                         (written from the section 5 formulas, *not* from A, B, C, D).
+
+State vectors (all start at 0):
+  RLT         [uY, uX]
+  DDT         [uPsi, uY, uX]
+  SecondOrder [eta, uT, w, uX]
+  RingBody    [eta, uT, w, xr, uTx, wx]
+Driving inputs u = [vy, steerRate, vsx]; vx (and Fz) select the system.
+Outputs y = C x + D u, in the order of OUTPUTS.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import expm
+
+# --------------------------------------------------------------------------- names
+
+MODELS = {"RLT": 1, "DDT": 2, "SecondOrder": 3, "RingBody": 4}
+MODEL_NAMES = list(MODELS)
+
+INPUTS = ["vx", "vy", "steerRate", "vsx", "Fz"]
+INPUT_VR = {"vx": 1, "vy": 2, "steerRate": 3, "vsx": 4, "Fz": 5}
+DRIVING = ["vy", "steerRate", "vsx"]  # u, in this order
+
+OUTPUTS = ["Fx", "Fy", "Mz", "My", "alphaT", "kappaT", "deflX", "deflY", "deflPsi"]
+OUTPUT_VR = {name: vr for name, vr in zip(OUTPUTS, range(11, 20))}
+OUT = {name: i for i, name in enumerate(OUTPUTS)}
+LOADS = ["Fx", "Fy", "Mz", "My"]
+
+MODEL_VR = 100
+PARAMETER_VR = {
+    "Calpha": 101, "Ckappa": 102, "sigmaY": 103, "sigmaX": 104, "Re": 105, "trail": 106,
+    "Fz0": 107, "dampingY": 108, "dampingX": 109, "sigmaPsi": 110, "stiffnessPsi": 111,
+    "dampingPsi": 112, "contactMass": 113, "carcassDampingY": 114, "ringMass": 115,
+    "ringInertia": 116, "ringDampingY": 117, "ringDampingX": 118, "sigmaTread": 119,
+}
+DEFAULTS = {
+    "Calpha": 350000.0, "Ckappa": 500000.0, "sigmaY": 1.0, "sigmaX": 0.5, "Re": 0.6,
+    "trail": 0.05, "Fz0": 50000.0, "dampingY": 9000.0, "dampingX": 9000.0,
+    "sigmaPsi": 0.45, "stiffnessPsi": 40000.0, "dampingPsi": 400.0, "contactMass": 20.0,
+    "carcassDampingY": 9000.0, "ringMass": 30.0, "ringInertia": 8.0,
+    "ringDampingY": 9000.0, "ringDampingX": 9000.0, "sigmaTread": 0.1,
+}
+STATES = {
+    "RLT": ["uY", "uX"],
+    "DDT": ["uPsi", "uY", "uX"],
+    "SecondOrder": ["eta", "uT", "w", "uX"],
+    "RingBody": ["eta", "uT", "w", "xr", "uTx", "wx"],
+}
+
+# SPEC section 9: snowblower tire (Koo & Tan Table 1, per tire)
+SNOWBLOWER = {"Calpha": 350000.0, "sigmaY": 1.0, "sigmaPsi": 0.45, "dampingY": 9000.0,
+              "stiffnessPsi": 40000.0}
+
+LIFT_OFF_TIME_CONSTANT = 0.01  # s (FMU documentation: states decay with 0.01 s when Fz <= 0)
+
+
+def parameters(**overrides) -> dict:
+    p = dict(DEFAULTS)
+    for k, v in overrides.items():
+        if k not in p:
+            raise KeyError(k)
+        p[k] = float(v)
+    return p
+
+
+def derived(p: dict) -> dict:
+    """Derived stiffnesses of SPEC section 3 (never separate parameters)."""
+    return {
+        "C_y": p["Calpha"] / p["sigmaY"],          # Koo & Tan eq 16
+        "C_x": p["Ckappa"] / p["sigmaX"],
+        "k_y": p["Calpha"] / (p["sigmaY"] - p["sigmaTread"]),
+        "k_x": p["Ckappa"] / (p["sigmaX"] - p["sigmaTread"]),
+        "kT_y": p["Calpha"] / p["sigmaTread"],
+        "kT_x": p["Ckappa"] / p["sigmaTread"],
+    }
+
+
+# --------------------------------------------------------------------------- state space
+
+class _Builder:
+    """Fills A, B and output rows by state *name*, so the equations read like the SPEC."""
+
+    def __init__(self, states):
+        self.states = list(states)
+        self.ix = {s: i for i, s in enumerate(states)}
+        n = len(states)
+        self.A = np.zeros((n, n))
+        self.B = np.zeros((n, 3))
+        self.rows = {}
+
+    def ddt(self, state, x=None, u=None):
+        """d state/dt = sum x[k]*state_k + sum u[k]*input_k"""
+        i = self.ix[state]
+        for k, v in (x or {}).items():
+            self.A[i, self.ix[k]] += v
+        for k, v in (u or {}).items():
+            self.B[i, DRIVING.index(k)] += v
+
+    def combo(self, x=None, u=None):
+        c = np.zeros(len(self.states))
+        d = np.zeros(3)
+        for k, v in (x or {}).items():
+            c[self.ix[k]] += v
+        for k, v in (u or {}).items():
+            d[DRIVING.index(k)] += v
+        return c, d
+
+    def derivative(self, state):
+        """The row (c, d) with c x + d u = d state/dt."""
+        i = self.ix[state]
+        return self.A[i].copy(), self.B[i].copy()
+
+
+def _scale(row, k):
+    return row[0] * k, row[1] * k
+
+
+def _add(*rows):
+    c = sum(r[0] for r in rows)
+    d = sum(r[1] for r in rows)
+    return c, d
+
+
+def system(model: str, p: dict, vx: float, lifted_off: bool = False):
+    """A, B, C, D of SPEC section 4 (u = [vy, steerRate, vsx], y in OUTPUTS order)."""
+    q = derived(p)
+    rho = abs(vx)
+    b = _Builder(STATES[model])
+    zero = b.combo()
+
+    def lateral_contact(mass, damping):
+        # deta/dt = w - vy ; duT/dt = w - (rho/sigmaTread) uT
+        # m dw/dt = -kT_y uT - k_y eta - d (w - vy)
+        b.ddt("eta", {"w": 1.0}, {"vy": -1.0})
+        b.ddt("uT", {"w": 1.0, "uT": -rho / p["sigmaTread"]})
+        b.ddt("w", {"uT": -q["kT_y"] / mass, "eta": -q["k_y"] / mass, "w": -damping / mass},
+              {"vy": damping / mass})
+        fy = b.combo({"eta": q["k_y"], "w": damping}, {"vy": -damping})
+        defl_y = b.combo({"uT": 1.0, "eta": -1.0})
+        return fy, defl_y
+
+    def longitudinal_rlt():
+        b.ddt("uX", {"uX": -rho / p["sigmaX"]}, {"vsx": 1.0})
+        return b.combo({"uX": -q["C_x"]}), b.combo({"uX": 1.0})
+
+    yaw = zero   # DDT's yaw moment, without the trail term
+    my = None    # None: My = -Re Fx
+    defl_psi = zero
+    if model == "RLT":
+        b.ddt("uY", {"uY": -rho / p["sigmaY"]}, {"vy": 1.0})
+        fy = b.combo({"uY": -q["C_y"]})
+        defl_y = b.combo({"uY": 1.0})
+        fx, defl_x = longitudinal_rlt()
+    elif model == "DDT":
+        b.ddt("uPsi", {"uPsi": -rho / p["sigmaPsi"]}, {"steerRate": 1.0})
+        b.ddt("uY", {"uY": -rho / p["sigmaY"], "uPsi": vx}, {"vy": 1.0})
+        b.ddt("uX", {"uX": -rho / p["sigmaX"]}, {"vsx": 1.0})
+        fy = _scale(_add(b.combo({"uY": q["C_y"]}), _scale(b.derivative("uY"), p["dampingY"])), -1.0)
+        fx = _scale(_add(b.combo({"uX": q["C_x"]}), _scale(b.derivative("uX"), p["dampingX"])), -1.0)
+        yaw = _scale(_add(b.combo({"uPsi": p["stiffnessPsi"]}),
+                          _scale(b.derivative("uPsi"), p["dampingPsi"])), -1.0)
+        defl_y = b.combo({"uY": 1.0})
+        defl_x = b.combo({"uX": 1.0})
+        defl_psi = b.combo({"uPsi": 1.0})
+    elif model == "SecondOrder":
+        fy, defl_y = lateral_contact(p["contactMass"], p["carcassDampingY"])
+        fx, defl_x = longitudinal_rlt()
+    elif model == "RingBody":
+        fy, defl_y = lateral_contact(p["ringMass"], p["ringDampingY"])
+        mx = p["ringInertia"] / p["Re"] ** 2
+        dx = p["ringDampingX"]
+        # dxr/dt = wx - vsx ; duTx/dt = wx - (rho/sigmaTread) uTx
+        # m_x dwx/dt = -kT_x uTx - k_x xr - ringDampingX (wx - vsx)
+        b.ddt("xr", {"wx": 1.0}, {"vsx": -1.0})
+        b.ddt("uTx", {"wx": 1.0, "uTx": -rho / p["sigmaTread"]})
+        b.ddt("wx", {"uTx": -q["kT_x"] / mx, "xr": -q["k_x"] / mx, "wx": -dx / mx},
+              {"vsx": dx / mx})
+        fx = b.combo({"uTx": -q["kT_x"]})
+        my = _scale(b.combo({"xr": q["k_x"], "wx": dx}, {"vsx": -dx}), -p["Re"])
+        defl_x = b.combo({"uTx": 1.0, "xr": -1.0})
+    else:
+        raise ValueError(model)
+
+    if my is None:
+        my = _scale(fx, -p["Re"])
+    mz = _add(yaw, _scale(fy, -p["trail"]))
+    rows = {
+        "Fx": fx, "Fy": fy, "Mz": mz, "My": my,
+        "alphaT": _scale(defl_y, -1.0 / p["sigmaY"]),
+        "kappaT": _scale(defl_x, -1.0 / p["sigmaX"]),
+        "deflX": defl_x, "deflY": defl_y, "deflPsi": defl_psi,
+    }
+    C = np.array([rows[o][0] for o in OUTPUTS])
+    D = np.array([rows[o][1] for o in OUTPUTS])
+    A, B = b.A, b.B
+    if lifted_off:
+        n = A.shape[0]
+        A = -np.eye(n) / LIFT_OFF_TIME_CONSTANT
+        B = np.zeros_like(B)
+        D = np.zeros_like(D)
+        for o in LOADS:
+            C[OUT[o]] = 0.0
+    return A, B, C, D
+
+
+# --------------------------------------------------------------------------- exact stepping
+
+def zoh(A, B, h):
+    """x(t+h) = Phi x + Gamma u for u held constant (expm of [[A, B], [0, 0]] h)."""
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A
+    M[:n, n:] = B
+    E = expm(M * h)
+    return E[:n, :n], E[:n, n:]
+
+
+def foh(A, B, h):
+    """x(t+h) = Phi x + G0 u0 + G1 du for u(t + tau) = u0 + du tau (ramp).
+
+    expm of [[A, B, 0], [0, 0, I], [0, 0, 0]] h: the augmented state is [x, u, du].
+    """
+    n, m = B.shape
+    M = np.zeros((n + 2 * m, n + 2 * m))
+    M[:n, :n] = A
+    M[:n, n:n + m] = B
+    M[n:n + m, n + m:] = np.eye(m)
+    E = expm(M * h)
+    return E[:n, :n], E[:n, n:n + m], E[:n, n + m:]
+
+
+def simulate(model, p, vx, U, h, dU=None, Fz=None, x0=None, return_states=False):
+    """Exact response to inputs held (or ramped) over steps of size h.
+
+    vx: scalar or array (one value per step, held over the step).
+    U:  (N, 3) driving inputs [vy, steerRate, vsx] at the start of each step.
+    dU: (N, 3) input rates over each step (ramps), or None for piecewise constant.
+    Fz: None (always loaded) or array of normal loads, one per step.
+    Returns Y (N, 9): outputs at the end of each step, y = C x(t_k + h) + D u(t_k + h),
+    where u(t_k + h) = U[k] + h dU[k] (the inputs the FMU holds after the step).
+    """
+    U = np.atleast_2d(np.asarray(U, dtype=float))
+    N = U.shape[0]
+    vxs = np.broadcast_to(np.asarray(vx, dtype=float), (N,))
+    hs = np.broadcast_to(np.asarray(h, dtype=float), (N,))
+    lifted = np.zeros(N, bool) if Fz is None else (np.broadcast_to(np.asarray(Fz, float), (N,)) <= 0.0)
+    n = len(STATES[model])
+    x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
+    Y = np.empty((N, len(OUTPUTS)))
+    X = np.empty((N, n))
+    cache = {}
+    for k in range(N):
+        key = (vxs[k], hs[k], lifted[k], dU is not None)
+        if key not in cache:
+            A, B, C, D = system(model, p, vxs[k], lifted_off=bool(lifted[k]))
+            if dU is None:
+                Phi, G0 = zoh(A, B, hs[k])
+                G1 = None
+            else:
+                Phi, G0, G1 = foh(A, B, hs[k])
+            cache[key] = (Phi, G0, G1, C, D)
+        Phi, G0, G1, C, D = cache[key]
+        u = U[k]
+        if dU is None:
+            x = Phi @ x + G0 @ u
+            u_end = u
+        else:
+            x = Phi @ x + G0 @ u + G1 @ dU[k]
+            u_end = u + hs[k] * dU[k]
+        X[k] = x
+        Y[k] = C @ x + D @ u_end
+    if return_states:
+        return Y, X
+    return Y
+
+
+def state_space_response(model, p, vx, s):
+    """G(s) = C (sI - A)^-1 B + D, shape (len(s), 9, 3): a cross-check of system()."""
+    A, B, C, D = system(model, p, vx)
+    s = np.atleast_1d(np.asarray(s, dtype=complex))
+    n = A.shape[0]
+    out = np.empty((len(s), C.shape[0], B.shape[1]), dtype=complex)
+    for i, si in enumerate(s):
+        out[i] = C @ np.linalg.solve(si * np.eye(n) - A, B) + D
+    return out
+
+
+# --------------------------------------------------------------------------- SPEC section 5
+
+def transfer(model: str, p: dict, vx: float, s):
+    """Transfer functions of SPEC section 5 at Laplace variable(s) s.
+
+    Returns a dict with complex arrays for
+      'Fy/vy', 'Fy/steerRate', 'Mz/vy', 'Mz/steerRate', 'Fx/vsx', 'My/vsx'.
+    Fy = -Z vy (lateral impedance Z), Fx = -Zx vsx, Mz = yaw - trail Fy, My = -Re Fx
+    (RingBody: Fx and My from the circumferential formulas).
+    """
+    s = np.asarray(s, dtype=complex)
+    q = derived(p)
+    rho = abs(vx)
+    zero = np.zeros_like(s)
+
+    def contact_impedance(k, kT, mass, damping):
+        Zc = k / s + damping
+        Zm = mass * s + kT / (s + rho / p["sigmaTread"])
+        return Zc, Zm
+
+    fy_r = zero
+    mz_yaw_r = zero
+    if model == "RLT":
+        Z = q["C_y"] / (s + rho / p["sigmaY"])
+        Zx = q["C_x"] / (s + rho / p["sigmaX"])
+    elif model == "DDT":
+        Z = (p["dampingY"] * s + q["C_y"]) / (s + rho / p["sigmaY"])
+        Zx = (p["dampingX"] * s + q["C_x"]) / (s + rho / p["sigmaX"])
+        psi_r = 1.0 / (s + rho / p["sigmaPsi"])          # uPsi / r
+        fy_r = -Z * vx * psi_r
+        mz_yaw_r = -(p["stiffnessPsi"] + p["dampingPsi"] * s) * psi_r
+    elif model in ("SecondOrder", "RingBody"):
+        if model == "SecondOrder":
+            Zc, Zm = contact_impedance(q["k_y"], q["kT_y"], p["contactMass"], p["carcassDampingY"])
+        else:
+            Zc, Zm = contact_impedance(q["k_y"], q["kT_y"], p["ringMass"], p["ringDampingY"])
+        Z = Zc * Zm / (Zc + Zm)
+        Zx = q["C_x"] / (s + rho / p["sigmaX"])
+    else:
+        raise ValueError(model)
+
+    fy_vy = -Z
+    if model == "RingBody":
+        mx = p["ringInertia"] / p["Re"] ** 2
+        Zc = q["k_x"] / s + p["ringDampingX"]
+        Zm = mx * s + q["kT_x"] / (s + rho / p["sigmaTread"])
+        fx_vsx = -(q["kT_x"] / (s + rho / p["sigmaTread"])) * Zc / (Zc + Zm)
+        my_vsx = p["Re"] * Zc * Zm / (Zc + Zm)
+    else:
+        fx_vsx = -Zx
+        my_vsx = -p["Re"] * fx_vsx
+    return {
+        "Fy/vy": fy_vy,
+        "Fy/steerRate": fy_r,
+        "Mz/vy": -p["trail"] * fy_vy,
+        "Mz/steerRate": mz_yaw_r - p["trail"] * fy_r,
+        "Fx/vsx": fx_vsx,
+        "My/vsx": my_vsx,
+    }
+
+
+def wheel_mass_polynomial(p, vx, m_w, model):
+    """Koo & Tan eqs 41 (RLT) and 44 (DDT): denominator m_w s^2 + (m_w a + D) s + C_y."""
+    a = abs(vx) / p["sigmaY"]
+    D = p["dampingY"] if model == "DDT" else 0.0
+    return np.array([m_w, m_w * a + D, p["Calpha"] / p["sigmaY"]])
