@@ -239,5 +239,4 @@ fn main() {
     let code = generate(&guid, &model_identifier, &variables);
     let out_dir = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
     std::fs::write(Path::new(&out_dir).join("variables.rs"), code).expect("cannot write variables.rs");
-
 }

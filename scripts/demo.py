@@ -271,7 +271,7 @@ def summary(t, runs):
     """Printed table: peak |Fy| (lateral sweep) and peak |Mz| (steer sweep)."""
     late = t >= STOP_TIME - 1.0
     lines = [
-        "peak |Fy| in the lateral sweep [N] (whole run / last 1 s, ~2.8-3 Hz) and "
+        "peak |Fy| in the lateral sweep [N] (whole run / last 1 s, 2.7-3 Hz) and "
         "peak |Mz| in the steer sweep [N.m]:",
         f"  {'vx [m/s]':>8}  {'model':<12} {'Fy':>9} {'Fy 3Hz':>9} {'Mz':>9}",
     ]

@@ -300,7 +300,8 @@ impl Instance {
     pub fn do_step(&mut self, communication_point: f64, step_size: f64) -> CallResult {
         self.require(Call::DoStep)?;
         let tolerance = TIME_TOLERANCE * (1.0 + self.time.abs());
-        if !((communication_point - self.time).abs() <= tolerance) {
+        let offset = (communication_point - self.time).abs();
+        if offset.is_nan() || offset > tolerance {
             return Err(Rejection::error(format!(
                 "currentCommunicationPoint {communication_point} s is not the FMU's time {} s",
                 self.time

@@ -105,7 +105,7 @@ impl Logger {
 }
 
 /// Calls the importer's logger with the message as data ("%s"), never as a format.
-pub fn send(
+pub(super) fn send(
     callback: fmi2CallbackLogger,
     environment: fmi2ComponentEnvironment,
     instance_name: &CString,

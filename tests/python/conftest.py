@@ -134,6 +134,23 @@ class Tire:
             Y[k] = self._out_np
         return Y
 
+    def wheel_loop(self, m_w, v, F, h, F_ext=None):
+        """Fast inner loop of harness.wheel_cosim (same coupling, direct ctypes calls)."""
+        f = self.fmu
+        comp = f.component
+        vr_vy = _uint_array([ref.INPUT_VR["vy"]])
+        vr_fy = _uint_array([ref.OUTPUT_VR["Fy"]])
+        val = (ctypes.c_double * 1)()
+        out = (ctypes.c_double * 1)()
+        for k in range(len(v) - 1):
+            val[0] = v[k]
+            f.fmi2SetReal(comp, vr_vy, 1, val)
+            f.fmi2DoStep(comp, self.t, h, 1)
+            self.t += h
+            f.fmi2GetReal(comp, vr_fy, 1, out)
+            F[k + 1] = out[0]
+            v[k + 1] = v[k] + h * (out[0] + (0.0 if F_ext is None else F_ext[k])) / m_w
+
     def close(self):
         if self._alive:
             self._alive = False

@@ -363,3 +363,81 @@ def wheel_mass_polynomial(p, vx, m_w, model):
     a = abs(vx) / p["sigmaY"]
     D = p["dampingY"] if model == "DDT" else 0.0
     return np.array([m_w, m_w * a + D, p["Calpha"] / p["sigmaY"]])
+
+
+class ReferenceTire:
+    """The reference model behind the same small interface as conftest.Tire
+    (set, set_rates, step, outputs, run), stepping exactly with zoh/foh.
+
+    FMI semantics mirrored: inputs are held over a step, or ramped with the rates set by
+    set_rates; after a step the inputs are advanced to the ramp's end value and the rates
+    are kept. Fz <= 0 switches to the lifted-off system.
+    """
+
+    def __init__(self, model="DDT", params=None, vx=0.0, vy=0.0, steerRate=0.0, vsx=0.0, Fz=None):
+        self.model = model
+        self.params = parameters(**(params or {}))
+        self.inputs = {"vx": vx, "vy": vy, "steerRate": steerRate, "vsx": vsx,
+                       "Fz": self.params["Fz0"] if Fz is None else Fz}
+        self.rates = {k: 0.0 for k in self.inputs}
+        self.x = np.zeros(len(STATES[model]))
+        self.t = 0.0
+        self._cache = {}
+
+    def set(self, **inputs):
+        for k, v in inputs.items():
+            self.inputs[k] = float(v)
+
+    def set_rates(self, **rates):
+        for k, v in rates.items():
+            self.rates[k] = float(v)
+
+    def _u(self, values):
+        return np.array([values[k] for k in DRIVING])
+
+    def _system(self):
+        key = ("sys", self.inputs["vx"], self.inputs["Fz"] <= 0.0)
+        if key not in self._cache:
+            self._cache[key] = system(self.model, self.params, self.inputs["vx"], lifted_off=key[2])
+        return self._cache[key]
+
+    def outputs(self):
+        A, B, C, D = self._system()
+        return C @ self.x + D @ self._u(self.inputs)
+
+    def get(self, *names):
+        y = self.outputs()
+        return np.array([y[OUT[n]] for n in names])
+
+    def step(self, h):
+        if any(self.rates[k] != 0.0 for k in ("vx", "Fz")):
+            raise NotImplementedError("ramped vx or Fz")
+        key = ("step", self.inputs["vx"], self.inputs["Fz"] <= 0.0, h)
+        if key not in self._cache:
+            A, B, C, D = self._system()
+            self._cache[key] = foh(A, B, h)
+        Phi, G0, G1 = self._cache[key]
+        self.x = Phi @ self.x + G0 @ self._u(self.inputs) + G1 @ self._u(self.rates)
+        for k in self.inputs:
+            self.inputs[k] += h * self.rates[k]
+        self.t += h
+
+    def run(self, U, h, dU=None, vx=None, Fz=None):
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        N = U.shape[0]
+        hs = np.broadcast_to(np.asarray(h, dtype=float), (N,))
+        Y = np.empty((N, len(OUTPUTS)))
+        for k in range(N):
+            if vx is not None:
+                self.set(vx=np.broadcast_to(vx, (N,))[k])
+            if Fz is not None:
+                self.set(Fz=np.broadcast_to(Fz, (N,))[k])
+            self.set(**dict(zip(DRIVING, U[k])))
+            if dU is not None:
+                self.set_rates(**dict(zip(DRIVING, dU[k])))
+            self.step(float(hs[k]))
+            Y[k] = self.outputs()
+        return Y
+
+    def close(self):
+        pass

@@ -1,0 +1,210 @@
+//! The model description is the one source of truth: these tests read the XML on their
+//! own and prove that the generated table, the physics and the ModelStructure agree.
+
+use std::collections::BTreeMap;
+
+use quick_xml::Reader;
+use quick_xml::events::Event;
+use tirelag::fmi::instance::start_parameters;
+use tirelag::fmi::variables::{Causality, GUID, Role, VARIABLES, ValueType, Variable};
+use tirelag::physics::{Input, Output, Parameter, Parameters};
+
+const XML: &str = include_str!("../modelDescription/modelDescription.xml");
+
+/// (element name, attributes) of every element, in document order.
+fn elements() -> Vec<(String, BTreeMap<String, String>)> {
+    let mut reader = Reader::from_str(XML);
+    let mut out = Vec::new();
+    loop {
+        match reader.read_event().unwrap() {
+            Event::Start(e) | Event::Empty(e) => {
+                let attributes = e
+                    .attributes()
+                    .map(|a| {
+                        let a = a.unwrap();
+                        let key = a.key.as_ref().to_owned();
+                        let value = a
+                            .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                            .unwrap()
+                            .into_owned();
+                        (key, value)
+                    })
+                    .collect();
+                out.push((e.name().as_ref().to_owned(), attributes));
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    out
+}
+
+fn scalar_variables() -> Vec<BTreeMap<String, String>> {
+    elements()
+        .into_iter()
+        .filter(|(n, _)| n == "ScalarVariable")
+        .map(|(_, a)| a)
+        .collect()
+}
+
+#[test]
+fn generated_table_matches_the_xml_variable_by_variable() {
+    let declared = scalar_variables();
+    assert_eq!(declared.len(), VARIABLES.len());
+    for (xml, info) in declared.iter().zip(&VARIABLES) {
+        assert_eq!(xml["name"], info.name);
+        assert_eq!(
+            xml["valueReference"].parse::<u32>().unwrap(),
+            info.value_reference
+        );
+        assert_eq!(
+            Variable::from_value_reference(info.value_reference),
+            Some(info.variable)
+        );
+        assert_eq!(xml["causality"], format!("{:?}", info.causality).to_lowercase());
+    }
+    let guid = elements()
+        .into_iter()
+        .find(|(n, _)| n == "fmiModelDescription")
+        .unwrap()
+        .1["guid"]
+        .clone();
+    assert_eq!(guid, GUID);
+}
+
+#[test]
+fn every_spec_variable_is_declared_with_its_unit() {
+    let expected = [
+        ("vx", "m/s"),
+        ("vy", "m/s"),
+        ("steerRate", "rad/s"),
+        ("vsx", "m/s"),
+        ("Fz", "N"),
+        ("Fx", "N"),
+        ("Fy", "N"),
+        ("Mz", "N.m"),
+        ("My", "N.m"),
+        ("alphaT", "rad"),
+        ("kappaT", "1"),
+        ("deflX", "m"),
+        ("deflY", "m"),
+        ("deflPsi", "rad"),
+        ("Calpha", "N/rad"),
+        ("Ckappa", "N"),
+        ("sigmaY", "m"),
+        ("sigmaX", "m"),
+        ("Re", "m"),
+        ("trail", "m"),
+        ("Fz0", "N"),
+        ("dampingY", "N.s/m"),
+        ("dampingX", "N.s/m"),
+        ("sigmaPsi", "m"),
+        ("stiffnessPsi", "N.m/rad"),
+        ("dampingPsi", "N.m.s/rad"),
+        ("contactMass", "kg"),
+        ("carcassDampingY", "N.s/m"),
+        ("ringMass", "kg"),
+        ("ringInertia", "kg.m2"),
+        ("ringDampingY", "N.s/m"),
+        ("ringDampingX", "N.s/m"),
+        ("sigmaTread", "m"),
+    ];
+    for (name, unit) in expected {
+        let info = VARIABLES
+            .iter()
+            .find(|v| v.name == name)
+            .unwrap_or_else(|| panic!("{name} is not declared"));
+        assert_eq!(info.unit, unit, "{name}");
+        assert_eq!(info.value_type, ValueType::Real, "{name}");
+    }
+    let model = Variable::Model.info();
+    assert_eq!(
+        (model.value_type, model.start),
+        (ValueType::Enumeration, Some(2.0)),
+        "model starts as DDT"
+    );
+}
+
+#[test]
+fn every_physics_signal_and_parameter_has_exactly_one_variable() {
+    let roles: Vec<Role> = VARIABLES.iter().map(|v| v.variable.role()).collect();
+    let mut wanted: Vec<Role> = Input::ALL.map(Role::Input).to_vec();
+    wanted.extend(Output::ALL.map(Role::Output));
+    wanted.extend(Parameter::ALL.map(Role::Parameter));
+    wanted.push(Role::ModelChoice);
+    assert_eq!(roles.len(), wanted.len());
+    for role in wanted {
+        assert_eq!(roles.iter().filter(|r| **r == role).count(), 1, "{role:?}");
+        assert_eq!(Variable::with_role(role).role(), role);
+    }
+    for info in &VARIABLES {
+        let causality_fits = match info.variable.role() {
+            Role::Input(_) => info.causality == Causality::Input,
+            Role::Output(_) => info.causality == Causality::Output,
+            Role::Parameter(_) | Role::ModelChoice => info.causality == Causality::Parameter,
+        };
+        assert!(causality_fits, "{}", info.name);
+    }
+}
+
+#[test]
+fn start_values_are_the_documented_defaults_and_valid() {
+    let start = start_parameters().unwrap();
+    assert_eq!(start, Parameters::default());
+    start.validate().unwrap();
+    for info in &VARIABLES {
+        if let (Role::Parameter(p), Some(min)) = (info.variable.role(), info.min) {
+            assert!(
+                p.check(min - 1e-9).is_err(),
+                "{}: values below min must be refused",
+                info.name
+            );
+        }
+    }
+}
+
+#[test]
+fn model_structure_lists_exactly_the_outputs_with_their_feedthrough() {
+    let indices: BTreeMap<usize, &str> = VARIABLES
+        .iter()
+        .enumerate()
+        .map(|(i, v)| (i + 1, v.name))
+        .collect();
+    let mut section = String::new();
+    let mut unknowns: BTreeMap<String, Vec<Vec<&str>>> = BTreeMap::new();
+    for (name, attributes) in elements() {
+        if name == "Outputs" || name == "InitialUnknowns" || name == "Derivatives" {
+            section = name;
+        } else if name == "Unknown" {
+            let index: usize = attributes["index"].parse().unwrap();
+            let dependencies: Vec<&str> = attributes["dependencies"]
+                .split_whitespace()
+                .map(|d| indices[&d.parse::<usize>().unwrap()])
+                .collect();
+            unknowns
+                .entry(section.clone())
+                .or_default()
+                .push(vec![indices[&index]]);
+            unknowns
+                .get_mut(&section)
+                .unwrap()
+                .last_mut()
+                .unwrap()
+                .extend(dependencies);
+        }
+    }
+    let expected: Vec<Vec<&str>> = vec![
+        vec!["Fx", "vx", "vsx", "Fz"],
+        vec!["Fy", "vx", "vy", "Fz"],
+        vec!["Mz", "vx", "vy", "steerRate", "Fz"],
+        vec!["My", "vx", "vsx", "Fz"],
+        vec!["alphaT"],
+        vec!["kappaT"],
+        vec!["deflX"],
+        vec!["deflY"],
+        vec!["deflPsi"],
+    ];
+    assert_eq!(unknowns["Outputs"], expected);
+    assert_eq!(unknowns["InitialUnknowns"], expected);
+    assert!(!unknowns.contains_key("Derivatives"));
+}

@@ -1,0 +1,184 @@
+//! An importer for the tests: loads the packed FMU binary with libloading (through the
+//! bindgen loader of the official headers) and drives it through the C ABI.
+
+#![allow(dead_code)]
+
+use std::ffi::{CString, c_void};
+use std::path::PathBuf;
+use std::ptr::null_mut;
+use std::sync::{Mutex, Once};
+
+use fmi_sys::fmi2::*;
+
+pub const OK: fmi2Status = fmi2Status_fmi2OK;
+pub const ERROR: fmi2Status = fmi2Status_fmi2Error;
+
+pub const GUID: &str = tirelag::fmi::variables::GUID;
+
+pub mod vr {
+    pub const VX: u32 = 1;
+    pub const VY: u32 = 2;
+    pub const STEER_RATE: u32 = 3;
+    pub const VSX: u32 = 4;
+    pub const FZ: u32 = 5;
+    pub const FX: u32 = 11;
+    pub const FY: u32 = 12;
+    pub const MZ: u32 = 13;
+    pub const MY: u32 = 14;
+    pub const OUTPUTS: [u32; 9] = [11, 12, 13, 14, 15, 16, 17, 18, 19];
+    pub const MODEL: u32 = 100;
+    pub const CALPHA: u32 = 101;
+    pub const SIGMA_Y: u32 = 103;
+}
+
+/// The packed binary: `target/fmu/TireLag.so`, written by `./scripts/build-fmu`
+/// (or the path in TIRELAG_SO).
+pub fn binary_path() -> PathBuf {
+    let path = std::env::var_os("TIRELAG_SO")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/fmu/TireLag.so"));
+    assert!(
+        path.exists(),
+        "{} is missing: run ./scripts/build-fmu first",
+        path.display()
+    );
+    path
+}
+
+pub fn load() -> Fmi2Binding {
+    // SAFETY: the FMU binary has no library constructors with preconditions.
+    unsafe { Fmi2Binding::new(binary_path()) }
+        .expect("the FMU binary loads and exports every FMI 2.0 function")
+}
+
+/// Messages the FMU sent to the logger, as "instance|level|message".
+static MESSAGES: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+struct Capture;
+
+impl log::Log for Capture {
+    fn enabled(&self, _: &log::Metadata) -> bool {
+        true
+    }
+    fn log(&self, record: &log::Record) {
+        let line = format!("{}|{}|{}", record.target(), record.level(), record.args());
+        MESSAGES.lock().unwrap().push(line);
+    }
+    fn flush(&self) {}
+}
+
+/// The log lines of one instance name (names are unique per test).
+pub fn messages(instance_name: &str) -> Vec<String> {
+    let prefix = format!("{instance_name}|");
+    MESSAGES
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| l.starts_with(&prefix))
+        .cloned()
+        .collect()
+}
+
+/// Callbacks whose logger is fmi-sys's C variadic handler, forwarding to `log`.
+pub fn callbacks() -> fmi2CallbackFunctions {
+    static INIT: Once = Once::new();
+    INIT.call_once(|| {
+        log::set_logger(&Capture).unwrap();
+        log::set_max_level(log::LevelFilter::Trace);
+    });
+    fmi2CallbackFunctions {
+        logger: Some(fmi_sys::fmi2::logger::callback_logger_handler),
+        allocateMemory: None,
+        freeMemory: None,
+        stepFinished: None,
+        componentEnvironment: null_mut::<c_void>(),
+    }
+}
+
+/// An instance with its binding; freed on drop.
+pub struct Slave<'a> {
+    pub fmu: &'a Fmi2Binding,
+    pub c: fmi2Component,
+    pub name: String,
+    _callbacks: Box<fmi2CallbackFunctions>,
+    pub time: f64,
+}
+
+impl<'a> Slave<'a> {
+    pub fn instantiate(fmu: &'a Fmi2Binding, name: &str) -> Self {
+        let callbacks = Box::new(callbacks());
+        let c_name = CString::new(name).unwrap();
+        let guid = CString::new(GUID).unwrap();
+        let c = unsafe {
+            fmu.fmi2Instantiate(
+                c_name.as_ptr(),
+                fmi2Type_fmi2CoSimulation,
+                guid.as_ptr(),
+                c"".as_ptr(),
+                &*callbacks,
+                0,
+                0,
+            )
+        };
+        assert!(!c.is_null(), "instantiate failed: {:?}", messages(name));
+        Slave {
+            fmu,
+            c,
+            name: name.to_owned(),
+            _callbacks: callbacks,
+            time: 0.0,
+        }
+    }
+
+    /// Instantiated, model chosen, initialised, ready to step.
+    pub fn initialised(fmu: &'a Fmi2Binding, name: &str, model: i32) -> Self {
+        let s = Self::instantiate(fmu, name);
+        assert_eq!(unsafe { fmu.fmi2SetupExperiment(s.c, 0, 0.0, 0.0, 0, 0.0) }, OK);
+        assert_eq!(s.set_integer(&[vr::MODEL], &[model]), OK);
+        assert_eq!(unsafe { fmu.fmi2EnterInitializationMode(s.c) }, OK);
+        assert_eq!(unsafe { fmu.fmi2ExitInitializationMode(s.c) }, OK);
+        s
+    }
+
+    pub fn set_real(&self, refs: &[u32], values: &[f64]) -> fmi2Status {
+        unsafe {
+            self.fmu
+                .fmi2SetReal(self.c, refs.as_ptr(), refs.len(), values.as_ptr())
+        }
+    }
+
+    pub fn set_integer(&self, refs: &[u32], values: &[i32]) -> fmi2Status {
+        unsafe {
+            self.fmu
+                .fmi2SetInteger(self.c, refs.as_ptr(), refs.len(), values.as_ptr())
+        }
+    }
+
+    pub fn get_real(&self, refs: &[u32]) -> Vec<f64> {
+        let mut values = vec![f64::NAN; refs.len()];
+        let status = unsafe {
+            self.fmu
+                .fmi2GetReal(self.c, refs.as_ptr(), refs.len(), values.as_mut_ptr())
+        };
+        assert_eq!(status, OK, "{:?}", messages(&self.name));
+        values
+    }
+
+    pub fn step(&mut self, h: f64) -> fmi2Status {
+        let status = unsafe { self.fmu.fmi2DoStep(self.c, self.time, h, 1) };
+        if status == OK {
+            self.time += h;
+        }
+        status
+    }
+
+    pub fn outputs(&self) -> Vec<f64> {
+        self.get_real(&vr::OUTPUTS)
+    }
+}
+
+impl Drop for Slave<'_> {
+    fn drop(&mut self) {
+        unsafe { self.fmu.fmi2FreeInstance(self.c) };
+    }
+}
