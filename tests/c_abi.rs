@@ -325,3 +325,206 @@ fn null_pointers_are_refused_not_followed() {
         fmu.fmi2FreeInstance(null_mut());
     }
 }
+
+/// Runs a deterministic scenario on a fresh instance and returns every output of every step.
+fn scenario(fmu: &Fmi2Binding, name: &str, model: i32, steps: usize) -> Vec<f64> {
+    let mut s = Slave::initialised(fmu, name, model);
+    let mut trace = Vec::with_capacity(steps * 9);
+    for k in 0..steps {
+        let t = k as f64 * 0.01;
+        let vx = 10.0 * (0.3 * t).cos();
+        assert_eq!(
+            s.set_real(
+                &[vr::VX, vr::VY, vr::STEER_RATE, vr::VSX],
+                &[vx, 0.2 * t.sin(), 0.1, 0.01]
+            ),
+            OK
+        );
+        assert_eq!(s.step(0.01), OK);
+        trace.extend(s.outputs());
+    }
+    trace
+}
+
+#[test]
+fn eight_threads_give_the_same_bits_as_one_after_another() {
+    let fmu = load();
+    let sequential: Vec<Vec<f64>> = (0..8)
+        .map(|i| scenario(&fmu, &format!("seq_{i}"), 1 + i % 4, 500))
+        .collect();
+    let concurrent: Vec<Vec<f64>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..8)
+            .map(|i| {
+                scope.spawn({
+                    let fmu = &fmu;
+                    move || scenario(fmu, &format!("thread_{i}"), 1 + i % 4, 500)
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for (a, b) in sequential.iter().zip(&concurrent) {
+        assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
+}
+
+#[test]
+fn a_thousand_load_instantiate_free_unload_cycles_run_clean() {
+    let cycles: usize = std::env::var("TIRELAG_LOAD_CYCLES").map_or(1000, |v| v.parse().unwrap());
+    for i in 0..cycles {
+        let fmu = load();
+        let mut s = Slave::initialised(&fmu, "cycle", 1 + (i % 4) as i32);
+        assert_eq!(s.step(0.01), OK);
+        drop(s);
+        drop(fmu); // dlclose
+    }
+}
+
+#[test]
+fn fmu_state_round_trips_through_bytes_and_continues_bit_identically() {
+    let fmu = load();
+    for model in 1..=4 {
+        let mut s = Slave::initialised(&fmu, &format!("state_{model}"), model);
+        assert_eq!(
+            s.set_real(&[vr::VX, vr::VY, vr::STEER_RATE, vr::VSX], &[3.0, 0.2, 0.1, 0.05]),
+            OK
+        );
+        for _ in 0..10 {
+            assert_eq!(s.step(0.01), OK);
+        }
+        let mut state: fmi2FMUstate = null_mut();
+        let mut size = 0usize;
+        let bytes = unsafe {
+            assert_eq!(fmu.fmi2GetFMUstate(s.c, &mut state), OK);
+            assert_eq!(fmu.fmi2SerializedFMUstateSize(s.c, state, &mut size), OK);
+            let mut bytes = vec![0u8; size];
+            assert_eq!(
+                fmu.fmi2SerializeFMUstate(s.c, state, bytes.as_mut_ptr().cast(), size),
+                OK
+            );
+            assert_eq!(fmu.fmi2FreeFMUstate(s.c, &mut state), OK);
+            assert!(state.is_null());
+            bytes
+        };
+        let saved_time = s.time;
+        let mut first = Vec::new();
+        for _ in 0..100 {
+            assert_eq!(s.step(0.01), OK);
+            first.extend(s.outputs());
+        }
+        // A corrupt copy is refused and changes nothing.
+        let mut corrupt = bytes.clone();
+        corrupt[size / 2] ^= 0x40;
+        let mut restored: fmi2FMUstate = null_mut();
+        unsafe {
+            assert_eq!(
+                fmu.fmi2DeSerializeFMUstate(s.c, corrupt.as_ptr().cast(), size, &mut restored),
+                ERROR
+            );
+            assert_eq!(
+                fmu.fmi2DeSerializeFMUstate(s.c, bytes.as_ptr().cast(), size - 1, &mut restored),
+                ERROR
+            );
+            assert!(restored.is_null());
+            assert_eq!(
+                fmu.fmi2DeSerializeFMUstate(s.c, bytes.as_ptr().cast(), size, &mut restored),
+                OK
+            );
+            assert_eq!(fmu.fmi2SetFMUstate(s.c, restored), OK);
+            assert_eq!(fmu.fmi2FreeFMUstate(s.c, &mut restored), OK);
+        }
+        s.time = saved_time;
+        let mut second = Vec::new();
+        for _ in 0..100 {
+            assert_eq!(s.step(0.01), OK);
+            second.extend(s.outputs());
+        }
+        assert!(
+            first.iter().zip(&second).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "model {model}"
+        );
+    }
+}
+
+#[test]
+fn reset_restores_start_values_and_time() {
+    let fmu = load();
+    let mut s = Slave::initialised(&fmu, "reset", 3);
+    assert_eq!(s.set_real(&[vr::VX, vr::VY], &[2.0, 0.5]), OK);
+    assert_eq!(s.step(0.5), OK);
+    assert_eq!(unsafe { fmu.fmi2Reset(s.c) }, OK);
+    assert_eq!(
+        s.set_real(&[vr::CALPHA], &[1000.0]),
+        OK,
+        "parameters are settable again"
+    );
+    assert_eq!(unsafe { fmu.fmi2Reset(s.c) }, OK);
+    unsafe {
+        assert_eq!(fmu.fmi2EnterInitializationMode(s.c), OK);
+        assert_eq!(fmu.fmi2ExitInitializationMode(s.c), OK);
+    }
+    let mut model = [0];
+    assert_eq!(
+        unsafe { fmu.fmi2GetInteger(s.c, [vr::MODEL].as_ptr(), 1, model.as_mut_ptr()) },
+        OK
+    );
+    assert_eq!(model, [2], "model back to its start value DDT");
+    assert_eq!(
+        s.get_real(&[vr::VX, vr::VY, vr::FZ, vr::CALPHA]),
+        vec![0.0, 0.0, 50_000.0, 350_000.0]
+    );
+    assert_eq!(s.outputs(), vec![0.0; 9], "states back to rest");
+    s.time = 0.0;
+    assert_eq!(s.step(0.1), OK, "time starts again at 0");
+}
+
+#[test]
+fn output_derivatives_and_status_functions() {
+    let fmu = load();
+    let mut s = Slave::initialised(&fmu, "derivatives", 1);
+    assert_eq!(s.set_real(&[vr::VX, vr::VY], &[5.0, -0.1]), OK);
+    assert_eq!(s.step(0.1), OK);
+    let mut rates = [0.0; 2];
+    let orders = [1, 1];
+    let refs = [vr::FY, 18];
+    assert_eq!(
+        unsafe {
+            fmu.fmi2GetRealOutputDerivatives(s.c, refs.as_ptr(), 2, orders.as_ptr(), rates.as_mut_ptr())
+        },
+        OK
+    );
+    // RLT: d deflY/dt = vy - (rho/sigmaY) deflY and dFy/dt = -(Calpha/sigmaY) d deflY/dt.
+    let defl_y = s.get_real(&[18])[0];
+    let expected = -0.1 - 5.0 * defl_y;
+    assert!((rates[1] - expected).abs() <= 1e-12 * expected.abs());
+    assert!((rates[0] + 350_000.0 * expected).abs() <= 1e-9 * (350_000.0 * expected).abs());
+    let second_order = [2, 2];
+    assert_eq!(
+        unsafe {
+            fmu.fmi2GetRealOutputDerivatives(s.c, refs.as_ptr(), 2, second_order.as_ptr(), rates.as_mut_ptr())
+        },
+        ERROR
+    );
+    let mut time = 0.0;
+    let mut flag = 1;
+    let mut status = ERROR;
+    unsafe {
+        assert_eq!(
+            fmu.fmi2GetRealStatus(s.c, fmi2StatusKind_fmi2LastSuccessfulTime, &mut time),
+            OK
+        );
+        assert_eq!(
+            fmu.fmi2GetBooleanStatus(s.c, fmi2StatusKind_fmi2Terminated, &mut flag),
+            OK
+        );
+        assert_eq!(
+            fmu.fmi2GetStatus(s.c, fmi2StatusKind_fmi2DoStepStatus, &mut status),
+            OK
+        );
+        assert_eq!(
+            fmu.fmi2GetStatus(s.c, fmi2StatusKind_fmi2PendingStatus, &mut status),
+            fmi2Status_fmi2Discard
+        );
+    }
+    assert_eq!((time, flag, status), (0.1, 0, OK));
+}

@@ -223,7 +223,16 @@ impl Instance {
             return refuse("the value is not finite".into());
         }
         match info.causality {
-            Causality::Input => Ok(()),
+            // Inputs are bounded by the model description; parameters by the physics.
+            Causality::Input => {
+                if let Some(min) = info.min.filter(|&min| value < min) {
+                    return refuse(format!("below its minimum {min} {}", info.unit));
+                }
+                if let Some(max) = info.max.filter(|&max| value > max) {
+                    return refuse(format!("above its maximum {max} {}", info.unit));
+                }
+                Ok(())
+            }
             Causality::Parameter if self.phase == Phase::StepComplete => refuse(
                 "it is a fixed parameter and the FMU is initialised; only inputs can change now".into(),
             ),

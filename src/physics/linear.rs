@@ -69,6 +69,16 @@ impl LinearSystem {
         augmented.view_mut((0, n), (n, m)).copy_from(&(&self.b * h));
         augmented.view_mut((n, n + m), (m, m)).fill_with_identity();
         augmented.view_mut((n, n + m), (m, m)).scale_mut(h);
+        // A non-finite matrix (absurd speeds or steps) has no exponential: return NaN, which
+        // the caller refuses, rather than hand it to the Pade solver.
+        if !augmented.iter().all(|v| v.is_finite()) {
+            let nan = |cols| DMatrix::from_element(n, cols, f64::NAN);
+            return StepMatrices {
+                phi: nan(n),
+                hold: nan(m),
+                ramp: nan(m),
+            };
+        }
         let e = augmented.exp();
         StepMatrices {
             phi: e.view((0, 0), (n, n)).into_owned(),

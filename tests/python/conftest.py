@@ -8,7 +8,6 @@ the small ``Tire`` helper below and frees them at the end of each test.
 from __future__ import annotations
 
 import ctypes
-import os
 import sys
 from pathlib import Path
 
@@ -222,22 +221,15 @@ def assert_close_run(Y, Yref, rtol=1e-9, atol=1e-12, label=""):
         raise AssertionError(f"{label}: outputs differ from the exact solution\n  " + "\n  ".join(lines))
 
 
+def seed(*key):
+    """A reproducible RNG seed from test parameters (str hashes are salted per process)."""
+    import zlib
+
+    return zlib.crc32(repr(key).encode())
+
+
 def random_steps(rng, n_steps, hold, amplitudes):
     """Piecewise-constant random signals: (n_steps, len(amplitudes)), new values every `hold` steps."""
     n_blocks = -(-n_steps // hold)
     values = rng.uniform(-1.0, 1.0, size=(n_blocks, len(amplitudes))) * np.asarray(amplitudes, float)
     return np.repeat(values, hold, axis=0)[:n_steps]
-
-
-def sine_fit(t, y, omega, poly_degree=3):
-    """Least-squares fit y ~ poly(t) + a sin(omega t) + b cos(omega t); returns the phasor
-    Y = b + j a... as a complex amplitude c with y_periodic = Re(c exp(j omega t))."""
-    t = np.asarray(t, float)
-    tc = (t - t.mean()) / max(t.max() - t.min(), 1e-300)
-    cols = [tc ** k for k in range(poly_degree + 1)] + [np.cos(omega * t), np.sin(omega * t)]
-    M = np.column_stack(cols)
-    scale = np.max(np.abs(y)) or 1.0
-    coef, *_ = np.linalg.lstsq(M, np.asarray(y) / scale, rcond=None)
-    a_cos, a_sin = coef[-2] * scale, coef[-1] * scale
-    # a_cos cos + a_sin sin = Re((a_cos - j a_sin) e^{j omega t})
-    return complex(a_cos, -a_sin)

@@ -21,6 +21,7 @@ import pytest
 
 import harness
 import reference as ref
+from conftest import seed
 
 SPEEDS = [0.0, 0.45, 1.6, 20.0, -5.0]
 FREQS = np.geomspace(0.05, 20.0, 6)
@@ -85,7 +86,7 @@ def test_ddt_steering_frequency_response(make_tire, vx):
 @pytest.mark.parametrize("model", ["RLT", "SecondOrder", "RingBody"])
 def test_no_steering_path_outside_ddt(make_tire, model, vx):
     """Only DDT has a steerRate path: for the others every output stays exactly zero."""
-    rng = np.random.default_rng(abs(hash((model, vx))) % 2**32)
+    rng = np.random.default_rng(seed(model, vx))
     n = 200
     U = np.zeros((n, 3))
     U[:, 1] = rng.uniform(-1.0, 1.0, size=n)

@@ -9,15 +9,11 @@ import numpy as np
 import pytest
 
 import reference as ref
-from conftest import assert_close_run, random_steps
+from conftest import assert_close_run, random_steps, seed
 
 SPEEDS = [0.0, 0.45, 1.6, 20.0, -5.0]
 STEPS = {1e-3: 1500, 0.1: 200}
 AMPLITUDES = [0.3, 0.2, 0.25]          # vy m/s, steerRate rad/s, vsx m/s
-
-
-def _seed(*key):
-    return abs(hash(key)) % 2**32
 
 
 @pytest.mark.parametrize("h", list(STEPS))
@@ -25,7 +21,7 @@ def _seed(*key):
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_piecewise_constant_inputs_are_exact(make_tire, model, vx, h):
     n = STEPS[h]
-    rng = np.random.default_rng(_seed(model, vx, h))
+    rng = np.random.default_rng(seed(model, vx, h))
     U = random_steps(rng, n, hold=5, amplitudes=AMPLITUDES)
     tire = make_tire(model, vx=vx, vy=U[0, 0], steerRate=U[0, 1], vsx=U[0, 2])
     # outputs before the first step: states 0, so y = D u (direct feedthrough)
@@ -43,7 +39,7 @@ def test_ramped_inputs_are_exact(make_tire, model, vx):
     """0.5 s steps with vy (and steerRate, vsx) ramping linearly over each step via
     fmi2SetRealInputDerivatives; a continuous piecewise-linear input."""
     h, n = 0.5, 40
-    rng = np.random.default_rng(_seed("ramp", model, vx))
+    rng = np.random.default_rng(seed("ramp", model, vx))
     knots = rng.uniform(-1, 1, size=(n + 1, 3)) * np.array(AMPLITUDES)
     U = knots[:-1]
     dU = (knots[1:] - knots[:-1]) / h
@@ -79,7 +75,7 @@ def test_ramp_rate_is_kept_and_inputs_advance(make_tire, model):
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_extreme_steps_are_exact(make_tire, model, vx):
     """SPEC 6: any step from 1e-6 s to 10 s and |vx| up to 100 m/s."""
-    rng = np.random.default_rng(_seed("extreme", model, vx))
+    rng = np.random.default_rng(seed("extreme", model, vx))
     hs = np.array([1e-6] * 20 + [10.0] * 3 + [1e-6] * 20 + [3.7e-3] * 20 + [10.0] * 2 + [1e-6] * 5)
     U = random_steps(rng, len(hs), hold=4, amplitudes=AMPLITUDES)
     tire = make_tire(model, vx=vx)

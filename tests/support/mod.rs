@@ -6,6 +6,7 @@
 use std::ffi::{CString, c_void};
 use std::path::PathBuf;
 use std::ptr::null_mut;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, Once};
 
 use fmi_sys::fmi2::*;
@@ -53,6 +54,18 @@ pub fn load() -> Fmi2Binding {
 
 /// Messages the FMU sent to the logger, as "instance|level|message".
 static MESSAGES: Mutex<Vec<String>> = Mutex::new(Vec::new());
+/// Whether messages are kept (long fuzz runs only count them).
+static RECORD: AtomicBool = AtomicBool::new(true);
+static COUNT: AtomicUsize = AtomicUsize::new(0);
+
+/// Stop keeping messages; they are still formatted and counted.
+pub fn stop_recording() {
+    RECORD.store(false, Ordering::Relaxed);
+}
+
+pub fn message_count() -> usize {
+    COUNT.load(Ordering::Relaxed)
+}
 
 struct Capture;
 
@@ -62,7 +75,10 @@ impl log::Log for Capture {
     }
     fn log(&self, record: &log::Record) {
         let line = format!("{}|{}|{}", record.target(), record.level(), record.args());
-        MESSAGES.lock().unwrap().push(line);
+        COUNT.fetch_add(1, Ordering::Relaxed);
+        if RECORD.load(Ordering::Relaxed) {
+            MESSAGES.lock().unwrap().push(line);
+        }
     }
     fn flush(&self) {}
 }

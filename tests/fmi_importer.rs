@@ -1,0 +1,228 @@
+//! The packed FMU run by a second, independent importer: the `fmi` crate (rust-fmi). It
+//! unzips `TireLag.fmu`, parses its modelDescription.xml with its own schema, loads
+//! `binaries/linux64/TireLag.so` and drives an FMI 2.0 Co-Simulation instance. Every model,
+//! run through it for 200 steps of a fixed input sequence, must give the outputs of the
+//! physics core stepped directly.
+
+use std::path::PathBuf;
+use std::sync::Once;
+
+use fmi::fmi2::import::Fmi2Import;
+use fmi::fmi2::instance::{CoSimulation, Common};
+use fmi::fmi2::schema::{Causality, ScalarVariableElement};
+use fmi::fmi2::{Fmi2Error, Fmi2Res};
+use fmi::traits::FmiImport;
+use tirelag::physics::{Input, ModelKind, Output, Parameters, Tire};
+
+const STEP_SIZE: f64 = 0.01;
+const STEPS: usize = 200;
+const RELATIVE_TOLERANCE: f64 = 1e-12;
+
+const MODEL: (&str, u32) = ("model", 100);
+/// The real inputs this test drives, with their value references and physics inputs.
+const INPUTS: [(&str, u32, Input); 4] = [
+    ("vx", 1, Input::Vx),
+    ("vy", 2, Input::Vy),
+    ("steerRate", 3, Input::SteerRate),
+    ("vsx", 4, Input::Vsx),
+];
+/// Every output, with its value reference and physics output.
+const OUTPUTS: [(&str, u32, Output); 9] = [
+    ("Fx", 11, Output::Fx),
+    ("Fy", 12, Output::Fy),
+    ("Mz", 13, Output::Mz),
+    ("My", 14, Output::My),
+    ("alphaT", 15, Output::AlphaT),
+    ("kappaT", 16, Output::KappaT),
+    ("deflX", 17, Output::DeflX),
+    ("deflY", 18, Output::DeflY),
+    ("deflPsi", 19, Output::DeflPsi),
+];
+
+/// The packed FMU: `target/fmu/TireLag.fmu`, written by `./scripts/build-fmu` (or the path
+/// in TIRELAG_FMU).
+fn fmu_path() -> PathBuf {
+    let path = std::env::var_os("TIRELAG_FMU")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/fmu/TireLag.fmu"));
+    assert!(
+        path.is_file(),
+        "{} is missing: run ./scripts/build-fmu first (or set TIRELAG_FMU to the packed FMU)",
+        path.display()
+    );
+    path
+}
+
+/// Prints what the FMU sends to its logger callback (the `fmi` crate forwards it to `log`),
+/// so a refused call shows its reason.
+struct StderrLogger;
+
+impl log::Log for StderrLogger {
+    fn enabled(&self, metadata: &log::Metadata) -> bool {
+        metadata.level() <= log::Level::Warn
+    }
+
+    fn log(&self, record: &log::Record) {
+        if self.enabled(record.metadata()) {
+            eprintln!("[{} {}] {}", record.level(), record.target(), record.args());
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+fn import() -> Fmi2Import {
+    static LOGGER: Once = Once::new();
+    LOGGER.call_once(|| {
+        if log::set_logger(&StderrLogger).is_ok() {
+            log::set_max_level(log::LevelFilter::Warn);
+        }
+    });
+    let path = fmu_path();
+    fmi::import::from_path(&path)
+        .unwrap_or_else(|e| panic!("the fmi crate cannot import {}: {e} ({e:?})", path.display()))
+}
+
+/// Panics unless an FMI call returned fmi2OK.
+fn ok(call: &str, result: Result<Fmi2Res, Fmi2Error>) {
+    match result {
+        Ok(Fmi2Res::OK) => {}
+        other => panic!("{call} returned {other:?}, expected fmi2OK"),
+    }
+}
+
+/// The inputs `[vx, vy, steerRate, vsx]` over step `k`: standing still for 0.2 s, then
+/// rolling forward, through zero speed into reverse and forward again, while the other
+/// inputs vary on their own time scales.
+fn inputs_at(k: usize) -> [f64; 4] {
+    let t = k as f64 * STEP_SIZE;
+    let vx = if k < 20 {
+        0.0
+    } else {
+        6.0 * (std::f64::consts::TAU * (t - 0.2) / 1.5).sin()
+    };
+    let vy = 0.3 * (3.1 * t).sin() + 0.05;
+    let steer_rate = 0.2 * (5.3 * t).cos();
+    let vsx = 0.1 * (2.3 * t).sin() - 0.02;
+    [vx, vy, steer_rate, vsx]
+}
+
+/// Compares the outputs of the FMU (through the `fmi` crate) with the physics core at one
+/// communication point; returns the largest relative difference.
+fn compare(kind: ModelKind, step: usize, fmu: &[f64; 9], core: &[f64; 9]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for ((name, _, _), (&a, &b)) in OUTPUTS.iter().zip(fmu.iter().zip(core)) {
+        let scale = a.abs().max(b.abs()).max(1e-9);
+        let relative = (a - b).abs() / scale;
+        assert!(
+            relative <= RELATIVE_TOLERANCE,
+            "{} model, after {step} steps: {name} is {a:e} through the fmi crate but {b:e} in the \
+             physics core (relative difference {relative:e})",
+            kind.name()
+        );
+        worst = worst.max(relative);
+    }
+    worst
+}
+
+#[test]
+fn fmi_crate_reads_the_model_description() {
+    let import = import();
+    let md = import.model_description();
+    assert_eq!(md.fmi_version, "2.0");
+    assert_eq!(md.model_name, "TireLag");
+    assert_eq!(md.guid, tirelag::fmi::variables::GUID);
+    let cs = md
+        .co_simulation
+        .as_ref()
+        .expect("the fmi crate finds the CoSimulation element");
+    assert_eq!(cs.model_identifier, "TireLag");
+    assert!(md.model_exchange.is_none());
+
+    let variable = |name: &str| {
+        md.model_variable_by_name(name)
+            .unwrap_or_else(|e| panic!("the fmi crate does not find {name}: {e}"))
+    };
+    for (name, vr, _) in INPUTS {
+        let v = variable(name);
+        assert_eq!(v.value_reference, vr, "{name}");
+        assert_eq!(v.causality, Causality::Input, "{name}");
+        assert!(matches!(v.elem, ScalarVariableElement::Real(_)), "{name}");
+    }
+    for (name, vr, _) in OUTPUTS {
+        let v = variable(name);
+        assert_eq!(v.value_reference, vr, "{name}");
+        assert_eq!(v.causality, Causality::Output, "{name}");
+        assert!(matches!(v.elem, ScalarVariableElement::Real(_)), "{name}");
+    }
+    let model = variable(MODEL.0);
+    assert_eq!(model.value_reference, MODEL.1);
+    assert_eq!(model.causality, Causality::Parameter);
+    assert!(matches!(model.elem, ScalarVariableElement::Enumeration));
+}
+
+#[test]
+fn fmi_crate_co_simulation_matches_the_physics_core_for_every_model() {
+    let import = import();
+    let input_vrs = INPUTS.map(|(_, vr, _)| vr);
+    let output_vrs = OUTPUTS.map(|(_, vr, _)| vr);
+    for kind in ModelKind::ALL {
+        let mut fmu = import
+            .instantiate_cs(&format!("fmi_importer_{}", kind.name()), false, true)
+            .unwrap_or_else(|e| panic!("the fmi crate cannot instantiate the FMU: {e} ({e:?})"));
+        assert_eq!(Common::get_version(&fmu), "2.0");
+        assert_eq!(fmu.get_types_platform(), "default");
+        ok("fmi2SetupExperiment", fmu.setup_experiment(None, 0.0, None));
+        ok(
+            "fmi2SetInteger(model)",
+            fmu.set_integer(&[MODEL.1], &[kind as i32]),
+        );
+        ok(
+            "fmi2EnterInitializationMode",
+            Common::enter_initialization_mode(&mut fmu),
+        );
+        ok(
+            "fmi2ExitInitializationMode",
+            Common::exit_initialization_mode(&mut fmu),
+        );
+        let mut model = [0];
+        ok("fmi2GetInteger(model)", fmu.get_integer(&[MODEL.1], &mut model));
+        assert_eq!(model[0], kind as i32, "the FMU reports the model it was given");
+
+        let mut core = Tire::new(Parameters::default().with_model(kind)).expect("default parameters");
+        let core_outputs = |tire: &mut Tire| {
+            let y = tire.outputs();
+            OUTPUTS.map(|(_, _, output)| y[output as usize])
+        };
+
+        let mut y = [0.0; 9];
+        ok("fmi2GetReal(outputs)", fmu.get_real(&output_vrs, &mut y));
+        let mut worst = compare(kind, 0, &y, &core_outputs(&mut core));
+        let mut largest_fy: f64 = 0.0;
+        for k in 0..STEPS {
+            let u = inputs_at(k);
+            ok("fmi2SetReal(inputs)", fmu.set_real(&input_vrs, &u));
+            ok("fmi2DoStep", fmu.do_step(k as f64 * STEP_SIZE, STEP_SIZE, true));
+            ok("fmi2GetReal(outputs)", fmu.get_real(&output_vrs, &mut y));
+
+            for ((_, _, input), value) in INPUTS.iter().zip(u) {
+                core.set_input(*input, value);
+            }
+            core.step(STEP_SIZE).expect("the physics core steps");
+            worst = worst.max(compare(kind, k + 1, &y, &core_outputs(&mut core)));
+            largest_fy = largest_fy.max(y[1].abs());
+        }
+        // The sequence must have driven the tire, or the comparison proves little.
+        assert!(
+            largest_fy > 1e3,
+            "{} model: |Fy| stayed below {largest_fy} N",
+            kind.name()
+        );
+        ok("fmi2Terminate", Common::terminate(&mut fmu));
+        println!(
+            "{}: {STEPS} steps through the fmi crate match the physics core; largest relative \
+             difference {worst:e}, largest |Fy| {largest_fy:.1} N",
+            kind.name()
+        );
+    }
+}

@@ -1,0 +1,82 @@
+"""Worker process for the cross-process FMU-state test (test_fmi_state.py).
+
+    python fmi4_state_worker.py save OUTDIR   # per model: run, serialize, continue
+    python fmi4_state_worker.py load OUTDIR   # per model: fresh instance, restore, continue
+
+save: initialise with non-default parameters, drive WARMUP steps of the deterministic
+      sequence, serialize the FMU state to OUTDIR/<model>.state (and the time to
+      <model>.json), then drive CONTINUE more steps and save the outputs to
+      <model>.save.npy.
+load: a fresh, only-instantiated instance (default parameters, never initialised)
+      deserializes <model>.state, sets it, drives the same CONTINUE steps from the saved
+      time and saves the outputs to <model>.load.npy, plus the parameters and model it
+      reads back to <model>.load.json.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import fmi4_common as fc  # noqa: E402
+
+WARMUP = 300
+CONTINUE = 1000
+SEED = 20240611
+
+
+def sequence():
+    return fc.input_sequence(WARMUP + CONTINUE, SEED)
+
+
+def save(outdir: Path):
+    md = fc.read_md()
+    seq = sequence()
+    with tempfile.TemporaryDirectory() as tmp:
+        unzipdir = fc.extract_fmu(tmp)
+        for model in fc.MODELS:
+            s = fc.new_slave(md, unzipdir, name=f"save-{model}")
+            fc.initialise(s, model, fc.STATE_PARAMS)
+            _, t = fc.drive(s, 0.0, seq, 0, WARMUP)
+            state = s.getFMUstate()
+            blob = s.serializeFMUstate(state)
+            s.freeFMUstate(state)
+            (outdir / f"{model}.state").write_bytes(blob)
+            (outdir / f"{model}.json").write_text(json.dumps({"t": repr(t)}))
+            Y, _ = fc.drive(s, t, seq, WARMUP, WARMUP + CONTINUE)
+            np.save(outdir / f"{model}.save.npy", Y)
+            fc.close(s)
+
+
+def load(outdir: Path):
+    md = fc.read_md()
+    seq = sequence()
+    with tempfile.TemporaryDirectory() as tmp:
+        unzipdir = fc.extract_fmu(tmp)
+        for model in fc.MODELS:
+            t = float(json.loads((outdir / f"{model}.json").read_text())["t"])
+            blob = (outdir / f"{model}.state").read_bytes()
+            s = fc.new_slave(md, unzipdir, name=f"load-{model}")   # only instantiated
+            state = s.deSerializeFMUstate(blob)
+            s.setFMUstate(state)
+            s.freeFMUstate(state)
+            readback = {
+                "model": s.getInteger([fc.MODEL_VR])[0],
+                "params": dict(zip(fc.PARAMETER_VR, s.getReal(list(fc.PARAMETER_VR.values())))),
+                "inputs": s.getReal(fc.IN_VRS),
+            }
+            Y, _ = fc.drive(s, t, seq, WARMUP, WARMUP + CONTINUE)
+            np.save(outdir / f"{model}.load.npy", Y)
+            (outdir / f"{model}.load.json").write_text(json.dumps(readback))
+            fc.close(s)
+
+
+if __name__ == "__main__":
+    mode, outdir = sys.argv[1], Path(sys.argv[2])
+    {"save": save, "load": load}[mode](outdir)

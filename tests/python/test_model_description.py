@@ -1,0 +1,170 @@
+"""The packed modelDescription.xml against SPEC sections 1, 3 and 7."""
+
+import zipfile
+
+import numpy as np
+import pytest
+
+import reference as ref
+
+INPUT_UNITS = {"vx": "m/s", "vy": "m/s", "steerRate": "rad/s", "vsx": "m/s", "Fz": "N"}
+OUTPUT_UNITS = {"Fx": "N", "Fy": "N", "Mz": "N.m", "My": "N.m", "alphaT": "rad", "kappaT": "1",
+                "deflX": "m", "deflY": "m", "deflPsi": "rad"}
+PARAMETER_UNITS = {
+    "Calpha": "N/rad", "Ckappa": "N", "sigmaY": "m", "sigmaX": "m", "Re": "m", "trail": "m",
+    "Fz0": "N", "dampingY": "N.s/m", "dampingX": "N.s/m", "sigmaPsi": "m",
+    "stiffnessPsi": "N.m/rad", "dampingPsi": "N.m.s/rad", "contactMass": "kg",
+    "carcassDampingY": "N.s/m", "ringMass": "kg", "ringInertia": "kg.m2",
+    "ringDampingY": "N.s/m", "ringDampingX": "N.s/m", "sigmaTread": "m",
+}
+
+
+@pytest.fixture(scope="module")
+def variables(model_description):
+    return {v.name: v for v in model_description.modelVariables}
+
+
+def test_fmu_validates(fmu_path):
+    from fmpy.validation import validate_fmu
+
+    problems = validate_fmu(fmu_path)
+    assert problems == [], "\n".join(problems)
+
+
+def test_archive_layout(fmu_path):
+    names = zipfile.ZipFile(fmu_path).namelist()
+    assert "modelDescription.xml" in names
+    assert "binaries/linux64/TireLag.so" in names
+
+
+def test_packed_description_is_the_single_source(fmu_path, model_description):
+    """SPEC 1: modelDescription/ is the one source of truth; the FMU carries it."""
+    from fmpy import read_model_description
+
+    from conftest import REPO
+
+    source = read_model_description(str(REPO / "modelDescription" / "modelDescription.xml"))
+    assert source.guid == model_description.guid
+    assert [(v.name, v.valueReference, v.causality, v.variability, v.unit, v.start)
+            for v in source.modelVariables] == \
+           [(v.name, v.valueReference, v.causality, v.variability, v.unit, v.start)
+            for v in model_description.modelVariables]
+
+
+def test_cosimulation_capabilities(model_description):
+    md = model_description
+    assert md.fmiVersion == "2.0"
+    assert md.modelExchange is None
+    cs = md.coSimulation
+    assert cs is not None and cs.modelIdentifier == "TireLag"
+    assert cs.canHandleVariableCommunicationStepSize
+    assert cs.canGetAndSetFMUstate
+    assert cs.canSerializeFMUstate
+    assert cs.canInterpolateInputs
+    assert cs.maxOutputDerivativeOrder == 1
+    assert cs.providesDirectionalDerivative
+    assert md.guid
+
+
+def test_inputs(variables):
+    for name, unit in INPUT_UNITS.items():
+        v = variables[name]
+        assert v.causality == "input" and v.variability == "continuous" and v.type == "Real", name
+        assert v.unit == unit, (name, v.unit)
+        assert v.valueReference == ref.INPUT_VR[name]
+        expected_start = ref.DEFAULTS["Fz0"] if name == "Fz" else 0.0
+        assert float(v.start) == expected_start, (name, v.start)
+
+
+def test_outputs(variables):
+    for name, unit in OUTPUT_UNITS.items():
+        v = variables[name]
+        assert v.causality == "output" and v.variability == "continuous" and v.type == "Real", name
+        assert v.unit == unit, (name, v.unit)
+        assert v.valueReference == ref.OUTPUT_VR[name]
+
+
+def test_parameters(variables):
+    for name, unit in PARAMETER_UNITS.items():
+        v = variables[name]
+        assert v.causality == "parameter" and v.variability == "fixed" and v.type == "Real", name
+        assert v.unit == unit, (name, v.unit)
+        assert v.valueReference == ref.PARAMETER_VR[name]
+        assert float(v.start) == ref.DEFAULTS[name], (name, v.start)
+    # snowblower values where Koo & Tan Table 1 gives them (SPEC 3, 9)
+    for name, value in ref.SNOWBLOWER.items():
+        assert float(variables[name].start) == value, name
+    # sigmaTread below sigmaY and sigmaX (SPEC 3)
+    st = float(variables["sigmaTread"].start)
+    assert 0 < st < float(variables["sigmaY"].start) and st < float(variables["sigmaX"].start)
+
+
+def test_model_enumeration(variables):
+    v = variables["model"]
+    assert v.causality == "parameter" and v.variability == "fixed"
+    assert v.type == "Enumeration"
+    assert v.declaredType is not None and v.declaredType.name == "TireLagModel"
+    items = {i.name: int(i.value) for i in v.declaredType.items}
+    assert items == ref.MODELS
+    assert int(v.start) == ref.MODELS["DDT"]
+    assert v.valueReference == ref.MODEL_VR
+
+
+def test_no_other_variables(variables):
+    expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"model"}
+    assert set(variables) == expected
+    vrs = [v.valueReference for v in variables.values()]
+    assert len(vrs) == len(set(vrs)), "value references must be unique"
+
+
+def test_units_are_defined(model_description, variables):
+    defined = {u.name for u in model_description.unitDefinitions}
+    used = {v.unit for v in variables.values() if v.unit}
+    assert used <= defined, used - defined
+
+
+def _true_dependencies():
+    """Inputs that each output depends on directly, from the SPEC equations (union over
+    the four models): D != 0, C depends on vx, and the loads on Fz (lift-off)."""
+    rng = np.random.default_rng(1)
+    deps = {o: set() for o in ref.OUTPUTS}
+    p = ref.parameters()
+    for model in ref.MODEL_NAMES:
+        n = len(ref.STATES[model])
+        x = rng.normal(size=n)
+        u = rng.normal(size=3)
+        ys = {}
+        for vx in (-3.0, 2.0, 5.0):
+            A, B, C, D = ref.system(model, p, vx)
+            ys[vx] = C @ x + D @ u
+            for j, o in enumerate(ref.OUTPUTS):
+                for i, name in enumerate(ref.DRIVING):
+                    if D[j, i] != 0.0:
+                        deps[o].add(name)
+        _, _, Cl, Dl = ref.system(model, p, 2.0, lifted_off=True)
+        y_lifted = Cl @ x + Dl @ u
+        for j, o in enumerate(ref.OUTPUTS):
+            if len({round(ys[v][j], 12) for v in ys}) > 1:
+                deps[o].add("vx")
+            if y_lifted[j] != ys[2.0][j]:
+                deps[o].add("Fz")
+    return deps
+
+
+def test_model_structure_outputs(model_description):
+    outs = model_description.outputs
+    names = [u.variable.name for u in outs]
+    assert len(names) == 9 and sorted(names) == sorted(ref.OUTPUTS), names
+    truth = _true_dependencies()
+    for u in outs:
+        declared = {d.name for d in u.dependencies}
+        assert declared == truth[u.variable.name], (
+            f"{u.variable.name}: declared direct dependencies {sorted(declared)}, "
+            f"SPEC equations give {sorted(truth[u.variable.name])}")
+    # sanity of the derivation itself
+    assert truth["Fy"] >= {"vy"} and truth["Mz"] >= {"vy", "steerRate"} and truth["deflY"] == set()
+
+
+def test_initial_unknowns_cover_outputs(model_description):
+    names = {u.variable.name for u in model_description.initialUnknowns}
+    assert set(ref.OUTPUTS) <= names
