@@ -427,6 +427,16 @@ impl Instance {
         Ok(())
     }
 
+    /// The states, sized for the selected model. Before initialisation the tire may still
+    /// be the one of a previously selected model; its states are then at rest anyway.
+    fn states_of_selected_model(&self) -> Vec<f64> {
+        if self.tire.parameters().model == self.parameters.model {
+            self.tire.states().iter().copied().collect()
+        } else {
+            vec![0.0; self.parameters.model.equations().state_names().len()]
+        }
+    }
+
     pub fn snapshot(&self) -> CallResult<Snapshot> {
         self.require(Call::GetFmuState)?;
         Ok(Snapshot {
@@ -437,15 +447,28 @@ impl Instance {
             parameters: self.parameters.clone(),
             inputs: Input::ALL.map(|i| self.tire.input(i)),
             input_rates: Input::ALL.map(|i| self.tire.input_rate(i)),
-            states: self.tire.states().iter().copied().collect(),
+            states: self.states_of_selected_model(),
         })
     }
 
     pub fn restore(&mut self, snapshot: &Snapshot) -> CallResult {
         self.require(Call::SetFmuState)?;
-        let mut tire = Tire::new(snapshot.parameters.clone())
-            .map_err(|e| Rejection::error(format!("the FMU state holds bad parameters: {e}")))?;
-        tire.set_states(&snapshot.states).map_err(Rejection::error)?;
+        let before_initialisation = matches!(snapshot.phase, Phase::Instantiated | Phase::InitializationMode);
+        let mut tire = match Tire::new(snapshot.parameters.clone()) {
+            Ok(mut tire) => {
+                tire.set_states(&snapshot.states).map_err(Rejection::error)?;
+                tire
+            }
+            // Before initialisation the parameters need not fit together yet (they are
+            // checked at fmi2ExitInitializationMode) and the tire is at rest: the current
+            // tire carries the inputs until it is rebuilt.
+            Err(_) if before_initialisation => self.tire.clone(),
+            Err(e) => {
+                return Err(Rejection::error(format!(
+                    "the FMU state holds inconsistent parameters: {e}"
+                )));
+            }
+        };
         for (i, input) in Input::ALL.into_iter().enumerate() {
             tire.set_input(input, snapshot.inputs[i]);
             tire.set_input_rate(input, snapshot.input_rates[i]);

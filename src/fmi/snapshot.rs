@@ -104,7 +104,6 @@ impl Snapshot {
         for p in Parameter::ALL {
             parameters.set(p, r.f64()?).map_err(|e| e.to_string())?;
         }
-        parameters.validate().map_err(|e| e.to_string())?;
         let mut inputs = [0.0; Input::COUNT];
         let mut input_rates = [0.0; Input::COUNT];
         for value in inputs.iter_mut().chain(input_rates.iter_mut()) {

@@ -81,7 +81,8 @@ impl Call {
             Call::SetDebugLogging => INSTANTIATED | INIT | STEP | TERMINATED,
             Call::SetupExperiment | Call::EnterInitializationMode => INSTANTIATED,
             Call::ExitInitializationMode => INIT,
-            Call::Terminate | Call::DoStep | Call::GetStatus => STEP,
+            Call::Terminate | Call::DoStep => STEP,
+            Call::GetStatus => STEP | TERMINATED,
             Call::Reset => INSTANTIATED | INIT | STEP | TERMINATED | FATAL,
             Call::GetValues | Call::GetDirectionalDerivative => INIT | STEP | TERMINATED,
             Call::SetValues | Call::SetInputDerivatives => INSTANTIATED | INIT | STEP,
@@ -102,14 +103,15 @@ impl Call {
             .filter(|p| self.allowed() & p.bit() != 0)
             .map(|p| p.name())
             .collect();
-        let expected = if allowed.is_empty() {
-            "never (no asynchronous step is ever pending)".to_owned()
-        } else {
-            allowed.join(", ")
-        };
+        if allowed.is_empty() {
+            return Err(Rejection::error(
+                "this call is never allowed: fmi2DoStep completes before it returns, so no step is pending",
+            ));
+        }
         Err(Rejection::error(format!(
-            "this call is not allowed in {}; it is allowed in {expected}",
-            phase.name()
+            "this call is not allowed in {}; it is allowed in {}",
+            phase.name(),
+            allowed.join(", ")
         )))
     }
 }

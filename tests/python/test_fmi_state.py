@@ -184,7 +184,7 @@ def test_state_restored_in_another_process_continues_bit_identically(cross_proce
 
 # --------------------------------------------------------------------------- bad states
 
-def _reference_run(slaves, n=30):
+def _reference_run(slaves):
     s = slaves("RingBody", fc.STATE_PARAMS)
     _, t = fc.drive(s, 0.0, SEQ, 0, 100)
     state = s.getFMUstate()
@@ -206,10 +206,9 @@ def test_corrupt_truncated_and_foreign_states_are_refused(slaves):
     ref, t, blob, _ = _reference_run(slaves)
     Yref, _ = fc.drive(ref, t, SEQ, 100, 130)
 
-    md_slave = slaves("RingBody", fc.STATE_PARAMS, log=log)
-    _, t2 = fc.drive(md_slave, 0.0, SEQ, 0, 100)
+    s = slaves("RingBody", fc.STATE_PARAMS, log=log)       # same history as ref
+    _, t2 = fc.drive(s, 0.0, SEQ, 0, 100)
     assert t2 == t
-    s = md_slave
     y_before = fc.outputs(s)
 
     n = len(blob)

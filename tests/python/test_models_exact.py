@@ -97,3 +97,21 @@ def test_result_does_not_depend_on_chopping(make_tire, model):
     scale = np.max(np.abs(results), axis=0)
     for r in results[1:]:
         assert np.all(np.abs(r - results[0]) <= 1e-9 * scale + 1e-12), f"{r} vs {results[0]}"
+
+
+@pytest.mark.parametrize("model", ref.MODEL_NAMES)
+def test_outputs_follow_the_latest_inputs(make_tire, model):
+    """SPEC 6: outputs match the current states and the most recently set inputs
+    (direct feedthrough), also between steps and after changing vx."""
+    rng = np.random.default_rng(seed("feedthrough", model))
+    tire = make_tire(model, vx=4.0)
+    rt = ref.ReferenceTire(model, vx=4.0)
+    for k in range(20):
+        vx = float(rng.choice([4.0, -4.0, 0.0, 11.0]))
+        u = dict(zip(ref.DRIVING, rng.uniform(-0.5, 0.5, size=3)))
+        tire.set(vx=vx, **u)
+        rt.set(vx=vx, **u)
+        y, yr = tire.outputs(), rt.outputs()
+        assert np.all(np.abs(y - yr) <= 1e-9 * np.abs(yr) + 1e-9), (k, y, yr)
+        tire.step(0.05)
+        rt.step(0.05)
