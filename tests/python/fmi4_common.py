@@ -7,6 +7,7 @@ status of every call. Everything here goes through fmpy.fmi2.FMU2Slave.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 from pathlib import Path
 
@@ -24,13 +25,7 @@ OUTPUT_VR = dict(zip(OUTPUTS, range(11, 20)))
 IN_VRS = [INPUT_VR[n] for n in INPUTS]
 OUT_VRS = [OUTPUT_VR[n] for n in OUTPUTS]
 DRIVING_VRS = [INPUT_VR[n] for n in ("vy", "steerRate", "vsx")]
-MODEL_VR = 100
-PARAMETER_VR = {
-    "Calpha": 101, "Ckappa": 102, "sigmaY": 103, "sigmaX": 104, "Re": 105, "trail": 106,
-    "Fz0": 107, "dampingY": 108, "dampingX": 109, "sigmaPsi": 110, "stiffnessPsi": 111,
-    "dampingPsi": 112, "contactMass": 113, "carcassDampingY": 114, "ringMass": 115,
-    "ringInertia": 116, "ringDampingY": 117, "ringDampingX": 118, "sigmaTread": 119,
-}
+from reference import MODEL_VR, PARAMETER_VR  # noqa: E402  (one table of value references)
 VR_NAME = {vr: n for n, vr in {**INPUT_VR, **OUTPUT_VR, **PARAMETER_VR, "model": MODEL_VR}.items()}
 
 FMI2_OK, FMI2_WARNING, FMI2_DISCARD, FMI2_ERROR = 0, 1, 2, 3
@@ -107,6 +102,35 @@ def initialise(slave, model="DDT", params=None, inputs=None, start_time=0.0):
     if inputs:
         slave.setReal([INPUT_VR[k] for k in inputs], [float(v) for v in inputs.values()])
     return slave
+
+
+def module_fmu(tmp_path_factory, name):
+    """(model description, unzip directory): the body of a module-scoped `fmu` fixture."""
+    return read_md(), extract_fmu(tmp_path_factory.mktemp(name))
+
+
+def start_values(md):
+    """Start value of every variable by name (None where there is none)."""
+    return {v.name: (None if v.start is None else float(v.start)) for v in md.modelVariables}
+
+
+@contextlib.contextmanager
+def slave_factory(md, unzipdir, prefix):
+    """Yields new(model, params, inputs, log, init) -> slave; frees every slave at the end."""
+    made = []
+
+    def new(model="DDT", params=None, inputs=None, log=None, init=True):
+        s = new_slave(md, unzipdir, name=f"{prefix}{len(made)}", log=log)
+        made.append(s)
+        if init:
+            initialise(s, model, params, inputs)
+        return s
+
+    try:
+        yield new
+    finally:
+        for s in made:
+            close(s)
 
 
 def close(slave):

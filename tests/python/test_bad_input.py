@@ -21,14 +21,12 @@ MODELS = list(fc.MODELS)
 
 @pytest.fixture(scope="module")
 def fmu(tmp_path_factory):
-    md = fc.read_md()
-    return md, fc.extract_fmu(tmp_path_factory.mktemp("fmi4_bad"))
+    return fc.module_fmu(tmp_path_factory, "fmi4_bad")
 
 
 @pytest.fixture(scope="module")
 def starts(fmu):
-    md, _ = fmu
-    return {v.name: (None if v.start is None else float(v.start)) for v in md.modelVariables}
+    return fc.start_values(fmu[0])
 
 
 @pytest.fixture
@@ -38,20 +36,8 @@ def log():
 
 @pytest.fixture
 def slaves(fmu):
-    """new(model, params, inputs, log=None, init=True) -> slave; freed at the end."""
-    md, unzipdir = fmu
-    made = []
-
-    def new(model="DDT", params=None, inputs=None, log=None, init=True):
-        s = fc.new_slave(md, unzipdir, name=f"b{len(made)}", log=log)
-        made.append(s)
-        if init:
-            fc.initialise(s, model, params, inputs)
-        return s
-
-    yield new
-    for s in made:
-        fc.close(s)
+    with fc.slave_factory(*fmu, "b") as new:
+        yield new
 
 
 SEQ = fc.input_sequence(400, seed=11)

@@ -23,34 +23,23 @@ SPEEDS = [0.0, 1.6, 20.0]
 
 @pytest.fixture(scope="module")
 def fmu(tmp_path_factory):
-    md = fc.read_md()
-    return md, fc.extract_fmu(tmp_path_factory.mktemp("fmi4_deriv"))
+    return fc.module_fmu(tmp_path_factory, "fmi4_deriv")
 
 
 @pytest.fixture(scope="module")
 def starts(fmu):
-    md, _ = fmu
-    return {v.name: (None if v.start is None else float(v.start)) for v in md.modelVariables}
+    return fc.start_values(fmu[0])
 
 
 @pytest.fixture
 def slaves(fmu):
-    md, unzipdir = fmu
-    made = []
-
-    def new(model, inputs=None, params=None, log=None):
-        s = fc.new_slave(md, unzipdir, name=f"d{len(made)}", log=log)
-        made.append(s)
-        return fc.initialise(s, model, params, inputs)
-
-    yield new
-    for s in made:
-        fc.close(s)
+    with fc.slave_factory(*fmu, "d") as new:
+        yield new
 
 
 def warmed_up(slaves, model, vx, n=50, h=0.01):
     """An instance with nonzero states: n steps with nonzero driving inputs at speed vx."""
-    s = slaves(model, dict(vx=vx, vy=0.2, steerRate=0.15, vsx=0.1))
+    s = slaves(model, inputs=dict(vx=vx, vy=0.2, steerRate=0.15, vsx=0.1))
     t = 0.0
     for _ in range(n):
         s.doStep(t, h)
@@ -236,7 +225,7 @@ def _rlt_exact(p, vx, x0, u0, r, T):
 @pytest.mark.parametrize("vx", SPEEDS + [-5.0])
 def test_ramped_step_rlt_matches_independent_expm(slaves, starts, vx, T):
     params = {"sigmaY": 0.7, "sigmaX": 0.35, "Calpha": 2.6e5, "Ckappa": 4.1e5, "trail": 0.03, "Re": 0.45}
-    s = slaves("RLT", dict(vx=vx, vy=0.2, steerRate=0.15, vsx=0.1), params)
+    s = slaves("RLT", params, inputs=dict(vx=vx, vy=0.2, steerRate=0.15, vsx=0.1))
     t = 0.0
     for _ in range(40):
         s.doStep(t, 0.01)

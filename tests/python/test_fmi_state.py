@@ -23,27 +23,13 @@ MODELS = list(fc.MODELS)
 
 @pytest.fixture(scope="module")
 def fmu(tmp_path_factory):
-    """(model description, unzip directory) for this module."""
-    md = fc.read_md()
-    return md, fc.extract_fmu(tmp_path_factory.mktemp("fmi4_state"))
+    return fc.module_fmu(tmp_path_factory, "fmi4_state")
 
 
 @pytest.fixture
 def slaves(fmu):
-    """new(model=..., params=..., log=..., init=True) -> slave; all freed at the end."""
-    md, unzipdir = fmu
-    made = []
-
-    def new(model="DDT", params=None, log=None, init=True, inputs=None):
-        s = fc.new_slave(md, unzipdir, name=f"s{len(made)}", log=log)
-        made.append(s)
-        if init:
-            fc.initialise(s, model, params, inputs)
-        return s
-
-    yield new
-    for s in made:
-        fc.close(s)
+    with fc.slave_factory(*fmu, "s") as new:
+        yield new
 
 
 SEQ = fc.input_sequence(600, seed=7)
