@@ -1,6 +1,6 @@
 """Independent reference implementation of the TireLag models (SPEC sections 3-5).
 
-Everything here is written from /work/shared/SPEC.md only:
+Everything here is written from the project specification only:
 
 * ``parameters()``    -- the default parameter set (the modelDescription start values),
 * ``derived()``       -- the derived stiffnesses of SPEC section 3,
