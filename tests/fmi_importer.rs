@@ -4,6 +4,8 @@
 //! run through it for 200 steps of a fixed input sequence, must give the outputs of the
 //! physics core stepped directly.
 
+mod support;
+
 use std::path::PathBuf;
 use std::sync::Once;
 
@@ -39,18 +41,9 @@ const OUTPUTS: [(&str, u32, Output); 9] = [
     ("deflPsi", 19, Output::DeflPsi),
 ];
 
-/// The packed FMU: `target/fmu/TireLag.fmu`, written by `./scripts/build-fmu` (or the path
-/// in TIRELAG_FMU).
+/// The packed FMU: `target/fmu/TireLag.fmu` (or the path in TIRELAG_FMU).
 fn fmu_path() -> PathBuf {
-    let path = std::env::var_os("TIRELAG_FMU")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/fmu/TireLag.fmu"));
-    assert!(
-        path.is_file(),
-        "{} is missing: run ./scripts/build-fmu first (or set TIRELAG_FMU to the packed FMU)",
-        path.display()
-    );
-    path
+    support::packed_artifact("TIRELAG_FMU", "target/fmu/TireLag.fmu")
 }
 
 /// Prints what the FMU sends to its logger callback (the `fmi` crate forwards it to `log`),

@@ -371,15 +371,23 @@ unsafe fn fmu_state<'a>(state: fmi2FMUstate) -> CallResult<&'a FmuState> {
     unsafe { state.cast::<FmuState>().as_ref() }.ok_or_else(|| Rejection::error("FMUstate is NULL"))
 }
 
+/// Puts a snapshot into the importer's FMUstate slot, reusing the state already there.
+///
+/// # Safety
+/// A non-null `*slot` must come from this file and not be freed.
+unsafe fn store(slot: &mut fmi2FMUstate, snapshot: Snapshot) {
+    // SAFETY: per the contract above.
+    match unsafe { slot.cast::<FmuState>().as_mut() } {
+        Some(existing) => existing.0 = snapshot,
+        None => *slot = Box::into_raw(Box::new(FmuState(snapshot))).cast(),
+    }
+}
+
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
     with_instance(c, "fmi2GetFMUstate", |instance| {
         let slot = unsafe { out(FMUstate, "FMUstate")? };
-        let snapshot = instance.snapshot()?;
-        match unsafe { slot.cast::<FmuState>().as_mut() } {
-            Some(existing) => existing.0 = snapshot,
-            None => *slot = Box::into_raw(Box::new(FmuState(snapshot))).cast(),
-        }
+        unsafe { store(slot, instance.snapshot()?) };
         Ok(())
     })
 }
@@ -453,11 +461,7 @@ pub extern "C" fn fmi2DeSerializeFMUstate(
         instance.require(Call::SetFmuState)?;
         let slot = unsafe { out(FMUstate, "FMUstate")? };
         let bytes = unsafe { array(serializedState.cast::<u8>(), size, "serializedState")? };
-        let snapshot = Snapshot::from_bytes(bytes).map_err(Rejection::error)?;
-        match unsafe { slot.cast::<FmuState>().as_mut() } {
-            Some(existing) => existing.0 = snapshot,
-            None => *slot = Box::into_raw(Box::new(FmuState(snapshot))).cast(),
-        }
+        unsafe { store(slot, Snapshot::from_bytes(bytes).map_err(Rejection::error)?) };
         Ok(())
     })
 }

@@ -174,8 +174,8 @@ impl Tire {
         system
     }
 
-    /// The system at the current inputs, cached.
-    fn current_system(&mut self) -> &LinearSystem {
+    /// Makes the cached system the one for the current speed and contact mode.
+    fn refresh_system(&mut self) {
         let vx = self.input(Input::Vx);
         let mode = self.contact_mode();
         let fresh = matches!(&self.cache.system, Some((bits, m, _)) if *bits == vx.to_bits() && *m == mode);
@@ -183,23 +183,32 @@ impl Tire {
             let system = self.system_at(vx, vx.abs(), mode);
             self.cache.system = Some((vx.to_bits(), mode, system));
         }
-        &self.cache.system.as_ref().expect("filled above").2
+    }
+
+    /// The system made by the last [`Tire::refresh_system`].
+    fn cached_system(&self) -> &LinearSystem {
+        &self
+            .cache
+            .system
+            .as_ref()
+            .expect("refresh_system fills the cache")
+            .2
     }
 
     /// Outputs for the current states and inputs.
     pub fn outputs(&mut self) -> OutputVector {
-        let u = Self::driving_inputs(&self.inputs);
-        let x = self.states.clone();
-        self.current_system().outputs(&x, &u)
+        self.refresh_system();
+        self.cached_system()
+            .outputs(&self.states, &Self::driving_inputs(&self.inputs))
     }
 
     /// Time derivatives of the outputs at the current states, inputs and input rates
     /// (exact for a constant vx and normal load).
     pub fn output_rates(&mut self) -> OutputVector {
+        self.refresh_system();
         let u = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
-        let x = self.states.clone();
-        self.current_system().output_rates(&x, &u, &du)
+        self.cached_system().output_rates(&self.states, &u, &du)
     }
 
     /// Partial derivatives of every output with respect to one input, at the current
@@ -210,8 +219,9 @@ impl Tire {
     pub fn output_sensitivity(&mut self, input: Input) -> OutputVector {
         let mode = self.contact_mode();
         if let Some(driving) = input.driving() {
-            let system = self.current_system();
-            return OutputVector::from_iterator(system.d.column(driving as usize).iter().copied());
+            self.refresh_system();
+            let feedthrough = self.cached_system().d.column(driving as usize);
+            return OutputVector::from_iterator(feedthrough.iter().copied());
         }
         if input == Input::Fz {
             return OutputVector::zeros();

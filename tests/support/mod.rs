@@ -32,18 +32,23 @@ pub mod vr {
     pub const SIGMA_Y: u32 = 103;
 }
 
-/// The packed binary: `target/fmu/TireLag.so`, written by `./scripts/build-fmu`
-/// (or the path in TIRELAG_SO).
-pub fn binary_path() -> PathBuf {
-    let path = std::env::var_os("TIRELAG_SO")
+/// A file written by `./scripts/build-fmu`: the path in `env_var`, else `relative` to the
+/// crate. A missing file fails the test with the command that makes it.
+pub fn packed_artifact(env_var: &str, relative: &str) -> PathBuf {
+    let path = std::env::var_os(env_var)
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/fmu/TireLag.so"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(relative));
     assert!(
-        path.exists(),
-        "{} is missing: run ./scripts/build-fmu first",
+        path.is_file(),
+        "{} is missing: run ./scripts/build-fmu first (or set {env_var})",
         path.display()
     );
     path
+}
+
+/// The packed binary, also unpacked as `target/fmu/TireLag.so`.
+pub fn binary_path() -> PathBuf {
+    packed_artifact("TIRELAG_SO", "target/fmu/TireLag.so")
 }
 
 pub fn load() -> Fmi2Binding {
