@@ -117,8 +117,8 @@ fn parse(xml: &str) -> (String, String, Vec<Variable>) {
 fn check(variables: &[Variable]) {
     for (i, v) in variables.iter().enumerate() {
         assert!(
-            matches!(v.value_type.as_str(), "Real" | "Enumeration"),
-            "{}: only Real and Enumeration variables are supported, found {}",
+            matches!(v.value_type.as_str(), "Real" | "Integer"),
+            "{}: only Real and Integer variables are supported (libcosim ignores Enumeration), found {}",
             v.name,
             v.value_type
         );

@@ -107,7 +107,7 @@ class TireFmu:
         self.description = read_model_description(str(fmu_path))
         self.unzipdir = extract(str(fmu_path))
         self.vr = {v.name: v.valueReference for v in self.description.modelVariables}
-        missing = [n for n in INPUTS + OUTPUTS + ("model",) if n not in self.vr]
+        missing = [n for n in INPUTS + OUTPUTS + ("tireModel",) if n not in self.vr]
         if missing:
             raise SystemExit(f"{fmu_path}: the model description lacks {missing}")
 
@@ -127,7 +127,7 @@ class TireFmu:
         slave.instantiate()
         try:
             slave.setupExperiment(startTime=float(t[0]), stopTime=float(t[-1]))
-            slave.setInteger([vr["model"]], [MODELS[model]])
+            slave.setInteger([vr["tireModel"]], [MODELS[model]])
             slave.enterInitializationMode()
             slave.exitInitializationMode()
 

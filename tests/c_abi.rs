@@ -244,7 +244,7 @@ fn bad_values_are_refused_by_name_and_nothing_changes() {
         "{log}"
     );
     assert!(log.contains("unknown value reference 9999"), "{log}");
-    assert!(log.contains("cannot set model = 7"), "{log}");
+    assert!(log.contains("cannot set tireModel = 7"), "{log}");
     unsafe {
         assert_eq!(fmu.fmi2EnterInitializationMode(s.c), OK);
         assert_eq!(fmu.fmi2ExitInitializationMode(s.c), OK);

@@ -117,11 +117,11 @@ fn every_spec_variable_is_declared_with_its_unit() {
         assert_eq!(info.unit, unit, "{name}");
         assert_eq!(info.value_type, ValueType::Real, "{name}");
     }
-    let model = Variable::Model.info();
+    let model = Variable::TireModel.info();
     assert_eq!(
-        (model.value_type, model.start),
-        (ValueType::Enumeration, Some(2.0)),
-        "model starts as DDT"
+        (model.value_type, model.start, model.min, model.max),
+        (ValueType::Integer, Some(2.0), Some(1.0), Some(4.0)),
+        "tireModel is an Integer from 1 to 4 that starts as DDT"
     );
 }
 

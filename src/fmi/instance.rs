@@ -33,7 +33,7 @@ pub fn start_parameters() -> Result<Parameters, String> {
             Role::Parameter(p) => parameters.set(p, start).map_err(|e| e.to_string())?,
             Role::ModelChoice => {
                 parameters.model = ModelKind::from_value(start as i64)
-                    .ok_or(format!("model start value {start} is not a TireLagModel"))?
+                    .ok_or(format!("tireModel start value {start} is not a TireLagModel"))?
             }
             Role::Input(_) | Role::Output(_) => {}
         }
@@ -197,7 +197,7 @@ impl Instance {
                 self.sync_tire()?;
                 self.tire.outputs()[output as usize]
             }
-            Role::ModelChoice => unreachable!("lookup checked the type: model is an Enumeration"),
+            Role::ModelChoice => unreachable!("lookup checked the type: tireModel is an Integer"),
         })
     }
 
@@ -284,7 +284,7 @@ impl Instance {
         self.require(Call::GetValues)?;
         same_length("values", value_references.len(), values.len())?;
         for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
-            lookup(vr, ValueType::Enumeration)?;
+            lookup(vr, ValueType::Integer)?;
             *value = self.parameters.model as i32;
         }
         Ok(())
@@ -292,7 +292,7 @@ impl Instance {
 
     pub fn set_integer(&mut self, value_references: &[u32], values: &[i32]) -> CallResult {
         let values: Vec<f64> = values.iter().map(|&v| f64::from(v)).collect();
-        self.set_values(ValueType::Enumeration, value_references, &values)
+        self.set_values(ValueType::Integer, value_references, &values)
     }
 
     /// fmi2Get/SetBoolean and fmi2Get/SetString: this FMU has no such variables.

@@ -104,7 +104,25 @@ impl Logger {
     }
 }
 
-/// Calls the importer's logger with the message as data ("%s"), never as a format.
+/// The message as an FMI 2.0 logger format (section 2.1.5): the text itself with every
+/// '%' written as '%%' and every '#' as '##', so that it reads the same in importers that
+/// format it (fmpy, FMI Library, fmusim) and in those that print it as it comes. NUL bytes
+/// would cut the C string short; they become spaces.
+pub fn escape_message(message: &str) -> CString {
+    let mut escaped = String::with_capacity(message.len() + 8);
+    for c in message.chars() {
+        match c {
+            '%' => escaped.push_str("%%"),
+            '#' => escaped.push_str("##"),
+            '\0' => escaped.push(' '),
+            c => escaped.push(c),
+        }
+    }
+    CString::new(escaped).expect("NUL bytes were replaced")
+}
+
+/// Calls the importer's logger with the escaped message as the format and no variable
+/// arguments.
 pub(super) fn send(
     callback: fmi2CallbackLogger,
     environment: fmi2ComponentEnvironment,
@@ -114,7 +132,7 @@ pub(super) fn send(
     message: &str,
 ) {
     let Some(callback) = callback else { return };
-    let message = CString::new(message.replace('\0', " ")).unwrap_or_default();
+    let message = escape_message(message);
     let category = CString::new(category.name()).unwrap_or_default();
     // SAFETY: the importer gave this callback for exactly this call; every string is a
     // valid NUL-terminated C string that outlives the call.
@@ -124,8 +142,18 @@ pub(super) fn send(
             instance_name.as_ptr(),
             status as fmi2Status,
             category.as_ptr(),
-            c"%s".as_ptr(),
             message.as_ptr(),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::escape_message;
+
+    #[test]
+    fn percent_and_hash_are_doubled_and_nul_becomes_space() {
+        let escaped = escape_message("100% of #1\0end");
+        assert_eq!(escaped.to_str().unwrap(), "100%% of ##1 end");
     }
 }

@@ -27,7 +27,9 @@ pub enum Variability {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ValueType {
     Real,
-    Enumeration,
+    /// Selectors: Integer rather than Enumeration, so that every importer can set them
+    /// (OSP libcosim ignores Enumeration variables).
+    Integer,
 }
 
 /// A ScalarVariable's attributes as declared in the model description.
@@ -51,7 +53,7 @@ pub enum Role {
     Input(Input),
     Output(Output),
     Parameter(Parameter),
-    /// The `model` enumeration.
+    /// The `tireModel` selector (declared type TireLagModel).
     ModelChoice,
 }
 
@@ -83,7 +85,7 @@ impl Variable {
             V::DeflX => Role::Output(Output::DeflX),
             V::DeflY => Role::Output(Output::DeflY),
             V::DeflPsi => Role::Output(Output::DeflPsi),
-            V::Model => Role::ModelChoice,
+            V::TireModel => Role::ModelChoice,
             V::Calpha => Role::Parameter(Parameter::CorneringStiffness),
             V::Ckappa => Role::Parameter(Parameter::SlipStiffness),
             V::SigmaY => Role::Parameter(Parameter::LateralRelaxationLength),

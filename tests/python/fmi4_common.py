@@ -26,7 +26,7 @@ IN_VRS = [INPUT_VR[n] for n in INPUTS]
 OUT_VRS = [OUTPUT_VR[n] for n in OUTPUTS]
 DRIVING_VRS = [INPUT_VR[n] for n in ("vy", "steerRate", "vsx")]
 from reference import MODEL_VR, PARAMETER_VR  # noqa: E402  (one table of value references)
-VR_NAME = {vr: n for n, vr in {**INPUT_VR, **OUTPUT_VR, **PARAMETER_VR, "model": MODEL_VR}.items()}
+VR_NAME = {vr: n for n, vr in {**INPUT_VR, **OUTPUT_VR, **PARAMETER_VR, "tireModel": MODEL_VR}.items()}
 
 FMI2_OK, FMI2_WARNING, FMI2_DISCARD, FMI2_ERROR = 0, 1, 2, 3
 
@@ -34,11 +34,14 @@ FMI2_OK, FMI2_WARNING, FMI2_DISCARD, FMI2_ERROR = 0, 1, 2, 3
 class LogCapture:
     """fmi2CallbackFunctions whose logger records (status, category, message).
 
-    fmpy's logger proxy (fmpy.logging.addLoggerProxy) formats the variadic C call first,
-    so the Python callback receives the final text, as fmpy.simulate_fmu(logger=...) does.
+    With `formatting` (the default), fmpy's logger proxy (fmpy.logging.addLoggerProxy)
+    formats the variadic C call first, so the Python callback receives the final text, as
+    fmpy.simulate_fmu(logger=...) does. Without it the callback is a plain ctypes function
+    that receives the message argument as it comes, as FMI.jl and many hand-written masters
+    do.
     """
 
-    def __init__(self):
+    def __init__(self, formatting=True):
         import fmpy
         from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
@@ -55,7 +58,8 @@ class LogCapture:
         cb.logger = fmi2CallbackLoggerTYPE(logger)
         cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(fmpy.calloc)
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(fmpy.free)
-        addLoggerProxy(ctypes.byref(cb))
+        if formatting:
+            addLoggerProxy(ctypes.byref(cb))
         self.callbacks = cb
 
     def clear(self):

@@ -145,7 +145,7 @@ def test_unknown_value_reference_is_refused(slaves, log, vr):
 def test_wrong_type_and_causality_are_refused(slaves, log):
     s, twin, t = stepping_pair(slaves, log)
     cases = [
-        (s.setReal, ([fc.MODEL_VR], [1.0]), ["model"]),                 # Enumeration via setReal
+        (s.setReal, ([fc.MODEL_VR], [1.0]), ["tireModel"]),             # Integer via setReal
         (s.setInteger, ([fc.PARAMETER_VR["Calpha"]], [1]), ["Calpha"]),  # Real via setInteger
         (s.setReal, ([fc.OUTPUT_VR["Fy"]], [1.0]), ["Fy"]),             # an output
         (s.setBoolean, ([fc.INPUT_VR["vy"]], [True]), []),
@@ -214,23 +214,23 @@ def test_model_after_initialisation_is_refused(slaves, log, value):
     s, twin, t = stepping_pair(slaves, log, "SecondOrder")
     log.clear()
     status, _ = fc.status_of(s.setInteger, [fc.MODEL_VR], [value])
-    assert_error_logged(log, status, ["model"], float(value), f"model = {value} after initialisation")
+    assert_error_logged(log, status, ["tireModel"], float(value), f"tireModel = {value} after initialisation")
     assert s.getInteger([fc.MODEL_VR]) == [fc.MODELS["SecondOrder"]]
-    assert_unchanged(s, twin, t, f"model = {value}")
+    assert_unchanged(s, twin, t, f"tireModel = {value}")
 
 
 @pytest.mark.parametrize("value", [0, 5, -1, 99, -(2**31)])
-def test_model_enumeration_out_of_range_is_refused(slaves, log, value):
+def test_tire_model_out_of_range_is_refused(slaves, log, value):
     s = slaves(log=log, init=False)
     s.setupExperiment(startTime=0.0)
     s.setInteger([fc.MODEL_VR], [fc.MODELS["RLT"]])
     log.clear()
     status, _ = fc.status_of(s.setInteger, [fc.MODEL_VR], [value])
-    assert_error_logged(log, status, ["model"], float(value), f"model = {value}")
+    assert_error_logged(log, status, ["tireModel"], float(value), f"tireModel = {value}")
     s.enterInitializationMode()
     log.clear()
     status, _ = fc.status_of(s.setInteger, [fc.MODEL_VR], [value])
-    assert_error_logged(log, status, ["model"], float(value), f"model = {value} in initialisation mode")
+    assert_error_logged(log, status, ["tireModel"], float(value), f"tireModel = {value} in initialisation mode")
     assert s.getInteger([fc.MODEL_VR]) == [fc.MODELS["RLT"]]
     s.exitInitializationMode()
     Y, _ = fc.drive(s, 0.0, SEQ, 0, 40)
@@ -331,7 +331,7 @@ def _bad_calls(s, t, blob):
         ("nan input", lambda: s.setReal([fc.INPUT_VR["vy"]], [math.nan])),
         ("unknown vr", lambda: s.setReal([12345], [1.0])),
         ("fixed parameter", lambda: s.setReal([fc.PARAMETER_VR["sigmaY"]], [3.0])),
-        ("model", lambda: s.setInteger([fc.MODEL_VR], [1])),
+        ("tireModel", lambda: s.setInteger([fc.MODEL_VR], [1])),
         ("corrupt state", lambda: s.deSerializeFMUstate(bytes(bad))),
         ("truncated state", lambda: s.deSerializeFMUstate(blob[:-3])),
         ("step <= 0", lambda: s.doStep(t, 0.0)),

@@ -8,17 +8,12 @@ relative (libcosim counts time in integer nanoseconds, so its step sizes may dif
 fmpy's in the last bit; the FMU is exact for any step, so the results agree to rounding).
 
 libcosim ignores Enumeration variables (open-simulation-platform/libcosim#246, #670:
-"enums are ignored with a warning"), so through the FMU as packed only the default model
-(DDT) can be run. For the other models the test packs a copy of the FMU whose
-modelDescription declares `model` as an Integer (same value reference, same binary):
-libcosim then sets it with fmi2SetInteger, exactly the call an importer makes for an
-Enumeration in FMI 2.0.
+"enums are ignored with a warning"), so the selectors are Integer variables: libcosim
+sees `tireModel` and sets it with fmi2SetInteger on the FMU exactly as shipped. The test
+also checks that libcosim lists it as an Integer, so a change back to Enumeration fails here.
 """
 
 from __future__ import annotations
-
-import re
-import zipfile
 
 import numpy as np
 import pytest
@@ -61,23 +56,6 @@ def quiet_libcosim():
     log_output_level(CosimLogLevel.ERROR)
 
 
-@pytest.fixture(scope="module")
-def integer_model_fmu(tmp_path_factory):
-    """A copy of the FMU whose `model` variable is declared Integer instead of Enumeration."""
-    dst = tmp_path_factory.mktemp("fmi4_libcosim") / "TireLag.fmu"
-    with zipfile.ZipFile(fc.FMU_PATH) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
-        for item in zin.infolist():
-            data = zin.read(item.filename)
-            if item.filename == "modelDescription.xml":
-                text = data.decode("utf-8")
-                new, n = re.subn(r'<Enumeration\s+declaredType="TireLagModel"\s+start="(\d+)"\s*/>',
-                                 r'<Integer start="\1"/>', text)
-                assert n == 1, "the `model` Enumeration element was not found"
-                data = new.encode("utf-8")
-            zout.writestr(item, data)
-    return dst
-
-
 def run_libcosim(fmu_path, model, params, U):
     ex = CosimExecution.from_step_size(H_NS)
     slave = CosimLocalSlave(fmu_path=str(fmu_path), instance_name="tire")
@@ -85,6 +63,7 @@ def run_libcosim(fmu_path, model, params, U):
     assert idx >= 0, get_last_error_message()
     variables = {v.name.decode(): (v.reference, v.type) for v in ex.slave_variables(idx)}
     assert {n for n in fc.INPUTS + fc.OUTPUTS} <= set(variables)
+    assert variables["tireModel"][0] == fc.MODEL_VR, "libcosim must see the tireModel selector"
     manipulator = CosimManipulator.create_override()
     observer = CosimObserver.create_last_value()
     assert ex.add_manipulator(manipulator), get_last_error_message()
@@ -137,7 +116,7 @@ def assert_same(Y, Yref, label):
 
 
 def test_libcosim_runs_the_packed_fmu_like_fmpy(fmpy_fmu):
-    """The FMU exactly as packed (default model DDT), parameters as initial values."""
+    """The FMU exactly as packed, nothing set but parameters: the default model (DDT)."""
     md, unzipdir = fmpy_fmu
     U = _sequence(N_STEPS, 1)
     Y = run_libcosim(fc.FMU_PATH, None, PARAMS, U)
@@ -147,13 +126,13 @@ def test_libcosim_runs_the_packed_fmu_like_fmpy(fmpy_fmu):
 
 
 @pytest.mark.parametrize("model", list(fc.MODELS))
-def test_libcosim_all_models_like_fmpy(integer_model_fmu, fmpy_fmu, model):
+def test_libcosim_selects_every_model_on_the_shipped_fmu(fmpy_fmu, model):
     md, unzipdir = fmpy_fmu
     U = _sequence(N_STEPS, 2 + fc.MODELS[model])
-    Y = run_libcosim(integer_model_fmu, model, PARAMS, U)
+    Y = run_libcosim(fc.FMU_PATH, model, PARAMS, U)
     Yref = run_fmpy(model, PARAMS, U, unzipdir, md)
     assert_same(Y, Yref, model)
-    # the model really was switched: RLT and DDT differ on the same inputs
-    if model == "RLT":
-        Yddt = run_fmpy("DDT", PARAMS, U, unzipdir, md)
-        assert not np.allclose(Y, Yddt)
+    # the model really was switched: every other model differs on the same inputs
+    for other in fc.MODELS:
+        if other != model:
+            assert not np.allclose(Y, run_fmpy(other, PARAMS, U, unzipdir, md)), (model, other)

@@ -99,19 +99,39 @@ def test_parameters(variables):
     assert 0 < st < float(variables["sigmaY"].start) and st < float(variables["sigmaX"].start)
 
 
-def test_model_enumeration(variables):
-    v = variables["model"]
+def test_tire_model_selector_is_an_integer_every_importer_can_set(variables):
+    # Integer, not Enumeration: OSP libcosim ignores Enumeration variables (SPEC 3).
+    v = variables["tireModel"]
     assert v.causality == "parameter" and v.variability == "fixed"
-    assert v.type == "Enumeration"
+    assert v.type == "Integer"
     assert v.declaredType is not None and v.declaredType.name == "TireLagModel"
-    items = {i.name: int(i.value) for i in v.declaredType.items}
-    assert items == ref.MODELS
+    assert (int(v.min), int(v.max)) == (1, 4)
     assert int(v.start) == ref.MODELS["DDT"]
     assert v.valueReference == ref.MODEL_VR
+    # The names stand in the description, with their values.
+    for name, value in ref.MODELS.items():
+        assert f"{value} = {name}" in v.description, (name, v.description)
+
+
+# Modelica 3 keywords (Modelica Language Specification 3.6, section 2.3.3). A Modelica tool
+# declares one Modelica variable per FMU variable, so none of them may be a variable name.
+MODELICA_KEYWORDS = set("""
+    algorithm and annotation block break class connect connector constant constrainedby der
+    discrete each else elseif elsewhen encapsulated end enumeration equation expandable extends
+    external false final flow for function if import impure in initial inner input loop model not
+    operator or outer output package parameter partial protected public pure record redeclare
+    replaceable return stream then true type when while within
+""".split())
+
+
+def test_no_variable_is_named_after_a_modelica_keyword(variables):
+    clashes = sorted(set(variables) & MODELICA_KEYWORDS)
+    assert not clashes, f"variables named after Modelica keywords: {clashes}"
+    assert "model" in MODELICA_KEYWORDS and "tireModel" not in MODELICA_KEYWORDS
 
 
 def test_no_other_variables(variables):
-    expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"model"}
+    expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"tireModel"}
     assert set(variables) == expected
     vrs = [v.valueReference for v in variables.values()]
     assert len(vrs) == len(set(vrs)), "value references must be unique"
