@@ -204,6 +204,25 @@ fn generate(guid: &str, model_identifier: &str, variables: &[Variable]) -> Strin
         .unwrap();
     }
     writeln!(w, "];\n").unwrap();
+    let largest = variables.iter().map(|v| v.value_reference).max().unwrap_or(0);
+    writeln!(
+        w,
+        "/// The variable of each value reference: one load, no search. `None` where no\n/// variable has that value reference."
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "pub const VARIABLE_BY_VALUE_REFERENCE: [Option<Variable>; {}] = [",
+        largest + 1
+    )
+    .unwrap();
+    for vr in 0..=largest {
+        match variables.iter().find(|v| v.value_reference == vr) {
+            Some(v) => writeln!(w, "    Some(Variable::{}),", variant_name(&v.name)).unwrap(),
+            None => writeln!(w, "    None,").unwrap(),
+        }
+    }
+    writeln!(w, "];\n").unwrap();
     writeln!(w, "impl Variable {{").unwrap();
     writeln!(
         w,
@@ -215,17 +234,11 @@ fn generate(guid: &str, model_identifier: &str, variables: &[Variable]) -> Strin
         "    pub const fn from_value_reference(value_reference: u32) -> Option<Variable> {{"
     )
     .unwrap();
-    writeln!(w, "        match value_reference {{").unwrap();
-    for v in variables {
-        writeln!(
-            w,
-            "            {} => Some(Variable::{}),",
-            v.value_reference,
-            variant_name(&v.name)
-        )
-        .unwrap();
-    }
-    writeln!(w, "            _ => None,\n        }}\n    }}\n}}").unwrap();
+    writeln!(
+        w,
+        "        if (value_reference as usize) < VARIABLE_BY_VALUE_REFERENCE.len() {{\n            VARIABLE_BY_VALUE_REFERENCE[value_reference as usize]\n        }} else {{\n            None\n        }}\n    }}\n}}"
+    )
+    .unwrap();
     out
 }
 

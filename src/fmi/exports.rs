@@ -27,22 +27,28 @@ const MAX_ELEMENTS: usize = 1 << 24;
 ///
 /// # Safety
 /// A non-null `ptr` must point to `n` valid elements for the duration of the call.
+#[inline]
 unsafe fn array<'a, T>(ptr: *const T, n: usize, name: &str) -> CallResult<&'a [T]> {
     if n == 0 {
         return Ok(&[]);
     }
-    if ptr.is_null() {
-        return Err(Rejection::error(format!(
-            "{name} is NULL but {n} elements were given"
-        )));
-    }
-    if n > MAX_ELEMENTS {
-        return Err(Rejection::error(format!(
-            "{name}: {n} elements is more than the {MAX_ELEMENTS} allowed"
-        )));
+    if ptr.is_null() || n > MAX_ELEMENTS {
+        return Err(bad_array(ptr.is_null(), n, name));
     }
     // SAFETY: non-null, and the caller promises `n` elements.
     Ok(unsafe { std::slice::from_raw_parts(ptr, n) })
+}
+
+#[cold]
+#[inline(never)]
+fn bad_array(null: bool, n: usize, name: &str) -> Rejection {
+    if null {
+        Rejection::error(format!("{name} is NULL but {n} elements were given"))
+    } else {
+        Rejection::error(format!(
+            "{name}: {n} elements is more than the {MAX_ELEMENTS} allowed"
+        ))
+    }
 }
 
 /// # Safety

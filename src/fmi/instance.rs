@@ -7,7 +7,10 @@ use super::logger::{Category, Logger};
 use super::snapshot::Snapshot;
 use super::state_machine::{Call, Phase};
 use super::status::{CallResult, Rejection, Status};
-use super::variables::{Causality, Role, VARIABLES, ValueType, Variable};
+use super::variables::{
+    Causality, INPUT_BOUNDS, INPUT_BY_VALUE_REFERENCE, NO_SIGNAL, OUTPUT_BY_VALUE_REFERENCE, Role, VARIABLES,
+    ValueType, Variable,
+};
 
 /// How far `currentCommunicationPoint` may be from the instance's time, relative to
 /// `1 + |time|`: importers add step sizes in floating point.
@@ -18,6 +21,8 @@ pub struct Instance {
     phase: Phase,
     /// The parameters as set by the importer; checked together at initialisation.
     parameters: Parameters,
+    /// Whether `parameters` changed since `tire` was made from them.
+    parameters_changed: bool,
     tire: Tire,
     time: f64,
     start_time: f64,
@@ -83,6 +88,7 @@ impl Instance {
             logger,
             phase: Phase::Instantiated,
             parameters,
+            parameters_changed: false,
             tire,
             time: 0.0,
             start_time: 0.0,
@@ -166,6 +172,7 @@ impl Instance {
         let parameters = start_parameters().map_err(Rejection::error)?;
         self.tire = start_tire(&parameters).map_err(Rejection::error)?;
         self.parameters = parameters;
+        self.parameters_changed = false;
         self.phase = Phase::Instantiated;
         self.time = 0.0;
         self.start_time = 0.0;
@@ -176,16 +183,28 @@ impl Instance {
     /// Rebuilds the tire when parameters changed since it was made, keeping the inputs.
     /// Fails, naming the parameter, if the parameters do not fit together.
     fn sync_tire(&mut self) -> CallResult {
-        if self.tire.parameters() == &self.parameters {
-            return Ok(());
+        if self.parameters_changed {
+            self.rebuild_tire()
+        } else {
+            Ok(())
         }
-        let mut tire = Tire::new(self.parameters.clone())
-            .map_err(|e| Rejection::error(format!("inconsistent parameters: {e}")))?;
-        for input in Input::ALL {
-            tire.set_input(input, self.tire.input(input));
-            tire.set_input_rate(input, self.tire.input_rate(input));
+    }
+
+    /// The slow half of [`Instance::sync_tire`], kept out of line: a tire is several
+    /// kilobytes, and a frame that size on the hot path costs a stack probe per call.
+    #[cold]
+    #[inline(never)]
+    fn rebuild_tire(&mut self) -> CallResult {
+        if self.tire.parameters() != &self.parameters {
+            let mut tire = Tire::new(self.parameters.clone())
+                .map_err(|e| Rejection::error(format!("inconsistent parameters: {e}")))?;
+            for input in Input::ALL {
+                tire.set_input(input, self.tire.input(input));
+                tire.set_input_rate(input, self.tire.input_rate(input));
+            }
+            self.tire = tire;
         }
-        self.tire = tire;
+        self.parameters_changed = false;
         Ok(())
     }
 
@@ -202,12 +221,32 @@ impl Instance {
     }
 
     pub fn get_real(&mut self, value_references: &[u32], values: &mut [f64]) -> CallResult {
+        if self.get_outputs_fast(value_references, values) {
+            return Ok(());
+        }
         self.require(Call::GetValues)?;
         same_length("values", value_references.len(), values.len())?;
         for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
             *value = self.real_value(lookup(vr, ValueType::Real)?)?;
         }
         Ok(())
+    }
+
+    /// The common case of a co-simulation step: every value reference is an output and
+    /// the tire is up to date. One table load per value. Returns false (having perhaps
+    /// written some values) when the general path must decide.
+    fn get_outputs_fast(&mut self, refs: &[u32], values: &mut [f64]) -> bool {
+        if refs.len() != values.len() || self.parameters_changed || !Call::GetValues.allows(self.phase) {
+            return false;
+        }
+        let outputs = self.tire.outputs_ref();
+        for (&vr, value) in refs.iter().zip(values.iter_mut()) {
+            match OUTPUT_BY_VALUE_REFERENCE.get(vr as usize) {
+                Some(&output) if output != NO_SIGNAL => *value = outputs[output as usize],
+                _ => return false,
+            }
+        }
+        true
     }
 
     /// Checks that `variable` may be set now to `value`, naming both if not.
@@ -252,32 +291,66 @@ impl Instance {
     fn apply(&mut self, variable: Variable, value: f64) {
         match variable.role() {
             Role::Input(input) => self.tire.set_input(input, value),
-            Role::Parameter(p) => self.parameters.set(p, value).expect("checked by check_settable"),
+            Role::Parameter(p) => {
+                self.parameters.set(p, value).expect("checked by check_settable");
+                self.parameters_changed = true;
+            }
             Role::ModelChoice => {
-                self.parameters.model = ModelKind::from_value(value as i64).expect("checked")
+                self.parameters.model = ModelKind::from_value(value as i64).expect("checked");
+                self.parameters_changed = true;
             }
             Role::Output(_) => unreachable!("outputs are refused by check_settable"),
         }
     }
 
-    /// Sets values all together: if any one is refused, none is set.
-    fn set_values(&mut self, expected: ValueType, refs: &[u32], values: &[f64]) -> CallResult {
+    /// Sets values all together: if any one is refused, none is set. Checks everything
+    /// first, then applies (no buffer: a set must not allocate).
+    fn set_values<T: Copy + Into<f64>>(
+        &mut self,
+        expected: ValueType,
+        refs: &[u32],
+        values: &[T],
+    ) -> CallResult {
         self.require(Call::SetValues)?;
         same_length("values", refs.len(), values.len())?;
-        let mut checked = Vec::with_capacity(refs.len());
         for (&vr, &value) in refs.iter().zip(values) {
-            let variable = lookup(vr, expected)?;
-            self.check_settable(variable, value)?;
-            checked.push((variable, value));
+            self.check_settable(lookup(vr, expected)?, value.into())?;
         }
-        for (variable, value) in checked {
-            self.apply(variable, value);
+        for (&vr, &value) in refs.iter().zip(values) {
+            self.apply(lookup(vr, expected)?, value.into());
         }
         Ok(())
     }
 
     pub fn set_real(&mut self, value_references: &[u32], values: &[f64]) -> CallResult {
+        if self.set_inputs_fast(value_references, values) {
+            return Ok(());
+        }
         self.set_values(ValueType::Real, value_references, values)
+    }
+
+    /// The common case of a co-simulation step: every value is an input, finite and
+    /// within its bounds. Sets them and returns true; otherwise changes nothing and
+    /// returns false, and the general path decides (and names what is wrong).
+    fn set_inputs_fast(&mut self, refs: &[u32], values: &[f64]) -> bool {
+        if refs.len() != values.len() || !Call::SetValues.allows(self.phase) {
+            return false;
+        }
+        let mut inputs = self.tire.inputs();
+        for (&vr, &value) in refs.iter().zip(values) {
+            let input = match INPUT_BY_VALUE_REFERENCE.get(vr as usize) {
+                Some(&input) if input != NO_SIGNAL => input as usize,
+                _ => return false,
+            };
+            let [min, max] = INPUT_BOUNDS[input];
+            // NaN fails both comparisons.
+            if !(value >= min && value <= max) {
+                return false;
+            }
+            inputs[input] = value;
+        }
+        self.tire.set_inputs(inputs);
+        true
     }
 
     pub fn get_integer(&mut self, value_references: &[u32], values: &mut [i32]) -> CallResult {
@@ -291,8 +364,7 @@ impl Instance {
     }
 
     pub fn set_integer(&mut self, value_references: &[u32], values: &[i32]) -> CallResult {
-        let values: Vec<f64> = values.iter().map(|&v| f64::from(v)).collect();
-        self.set_values(ValueType::Integer, value_references, &values)
+        self.set_values(ValueType::Integer, value_references, values)
     }
 
     /// fmi2Get/SetBoolean and fmi2Get/SetString: this FMU has no such variables.
@@ -431,7 +503,7 @@ impl Instance {
     /// be the one of a previously selected model; its states are then at rest anyway.
     fn states_of_selected_model(&self) -> Vec<f64> {
         if self.tire.parameters().model == self.parameters.model {
-            self.tire.states().iter().copied().collect()
+            self.tire.states().to_vec()
         } else {
             vec![0.0; self.parameters.model.equations().state_names().len()]
         }
@@ -475,6 +547,7 @@ impl Instance {
         }
         self.tire = tire;
         self.parameters = snapshot.parameters.clone();
+        self.parameters_changed = true;
         self.phase = snapshot.phase;
         self.time = snapshot.time;
         self.start_time = snapshot.start_time;

@@ -94,10 +94,24 @@ impl Call {
     }
 
     /// Ok if `self` may be called in `phase`, else the error that says why not.
+    /// Whether the call is allowed in `phase`.
+    #[inline]
+    pub fn allows(self, phase: Phase) -> bool {
+        self.allowed() & phase.bit() != 0
+    }
+
+    #[inline]
     pub fn check(self, phase: Phase) -> CallResult {
-        if self.allowed() & phase.bit() != 0 {
-            return Ok(());
+        if self.allows(phase) {
+            Ok(())
+        } else {
+            self.refuse(phase)
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn refuse(self, phase: Phase) -> CallResult {
         let allowed: Vec<&str> = Phase::ALL
             .iter()
             .filter(|p| self.allowed() & p.bit() != 0)

@@ -66,9 +66,14 @@ impl Variable {
         self.info().name
     }
 
+    /// What this variable is to the tire: one table load.
+    pub const fn role(self) -> Role {
+        ROLES[self as usize]
+    }
+
     /// The exhaustive match makes a variable added to the model description a compile
     /// error here until the tire knows what it is.
-    pub const fn role(self) -> Role {
+    const fn declared_role(self) -> Role {
         use Variable as V;
         match self {
             V::Vx => Role::Input(Input::Vx),
@@ -117,3 +122,60 @@ impl Variable {
             .expect("every role has a variable: checked by the tests")
     }
 }
+
+/// [`Variable::declared_role`] of every variable, indexed by `Variable as usize`.
+const ROLES: [Role; VARIABLES.len()] = {
+    let mut roles = [Role::ModelChoice; VARIABLES.len()];
+    let mut i = 0;
+    while i < VARIABLES.len() {
+        roles[i] = VARIABLES[i].variable.declared_role();
+        i += 1;
+    }
+    roles
+};
+
+/// No signal at this value reference, in the tables below.
+pub const NO_SIGNAL: u8 = u8::MAX;
+
+/// The output index (`Output as u8`) of each value reference, [`NO_SIGNAL`] where the
+/// value reference is not an output: `fmi2GetReal` of outputs is one load per value.
+pub const OUTPUT_BY_VALUE_REFERENCE: [u8; VARIABLE_BY_VALUE_REFERENCE.len()] = signal_table(true);
+
+/// The input index (`Input as u8`) of each value reference, [`NO_SIGNAL`] where the value
+/// reference is not an input.
+pub const INPUT_BY_VALUE_REFERENCE: [u8; VARIABLE_BY_VALUE_REFERENCE.len()] = signal_table(false);
+
+const fn signal_table(outputs: bool) -> [u8; VARIABLE_BY_VALUE_REFERENCE.len()] {
+    let mut table = [NO_SIGNAL; VARIABLE_BY_VALUE_REFERENCE.len()];
+    let mut vr = 0;
+    while vr < table.len() {
+        if let Some(variable) = VARIABLE_BY_VALUE_REFERENCE[vr] {
+            match (outputs, variable.role()) {
+                (true, Role::Output(output)) => table[vr] = output as u8,
+                (false, Role::Input(input)) => table[vr] = input as u8,
+                _ => {}
+            }
+        }
+        vr += 1;
+    }
+    table
+}
+
+/// `[min, max]` of each input (`Input as usize`); the largest finite values where the
+/// model description gives no bound, so that a comparison also refuses infinities.
+pub const INPUT_BOUNDS: [[f64; 2]; Input::COUNT] = {
+    let mut bounds = [[f64::MIN, f64::MAX]; Input::COUNT];
+    let mut i = 0;
+    while i < VARIABLES.len() {
+        if let Role::Input(input) = VARIABLES[i].variable.role() {
+            if let Some(min) = VARIABLES[i].min {
+                bounds[input as usize][0] = min;
+            }
+            if let Some(max) = VARIABLES[i].max {
+                bounds[input as usize][1] = max;
+            }
+        }
+        i += 1;
+    }
+    bounds
+};

@@ -6,17 +6,20 @@
 //! moments are those the tire applies to the wheel hub, in N and N.m.
 //!
 //! Each model ([`models`]) is a linear time-invariant system for a given `vx`:
-//! `dx/dt = A x + B u`, `y = C x + D u` with `u = [vy, steerRate, vsx]`. The [`Tire`]
-//! steps it exactly (matrix exponential) for inputs held or ramped over a step.
+//! `dx/dt = A x + B u`, `y = C x + D u` with `u = [vy, steerRate, vsx]`. The [`stepper`]
+//! steps it exactly, block by block, for inputs held or ramped over a step; the [`Tire`]
+//! holds the states and inputs.
 
-pub mod linear;
 pub mod models;
 pub mod parameters;
 pub mod signals;
+pub mod state_space;
+pub mod stepper;
 pub mod tire;
 
-pub use linear::{LinearSystem, StepMatrices};
 pub use models::ModelKind;
 pub use parameters::{Parameter, ParameterError, Parameters};
 pub use signals::{DrivingInput, Input, Output, OutputVector};
+pub use state_space::{StateSpace, StateVector};
+pub use stepper::StepMap;
 pub use tire::Tire;

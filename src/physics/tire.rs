@@ -2,12 +2,11 @@
 
 use std::fmt;
 
-use nalgebra::{DVector, Vector3};
-
-use super::linear::{LinearSystem, StepMatrices};
 use super::models::TireLagModel;
-use super::parameters::{ParameterError, Parameters};
-use super::signals::{Input, Output, OutputVector};
+use super::parameters::{Parameter, ParameterError, Parameters};
+use super::signals::{Input, OutputVector};
+use super::state_space::{DrivingVector, StateSpace, StateVector};
+use super::stepper::{AffineSystem, ContactSystem, OperatingPoint};
 
 /// How fast the deflections relax while the wheel is off the ground, s: a free carcass
 /// springs back within a few hundredths of a second.
@@ -56,42 +55,46 @@ impl fmt::Display for StepError {
 
 impl std::error::Error for StepError {}
 
-#[derive(Clone, Debug)]
-struct Cache {
-    system: Option<(u64, ContactMode, LinearSystem)>,
-    step: Option<(u64, ContactMode, u64, StepMatrices)>,
-}
+/// What the step map of a contact mode was last made for: operating point, step size.
+type StepKey = ([u64; OperatingPoint::COORDINATES], u64);
 
 /// A tire with one of the four tire-lag models.
 ///
 /// Inputs are held, or ramped with their rates, over a step; `step` advances the states
-/// by the exact solution of the model's linear ODE. The discretisation is reused while
-/// `vx`, the contact mode and the step size are unchanged.
+/// by the exact solution of the model's linear ODE. The step map is reused while the
+/// operating point, the contact mode and the step size are unchanged; the outputs are
+/// computed once per change of states or inputs.
 #[derive(Clone, Debug)]
 pub struct Tire {
     parameters: Parameters,
-    states: DVector<f64>,
+    rolling: ContactSystem,
+    lifted_off: ContactSystem,
+    states: StateVector,
     inputs: [f64; Input::COUNT],
     input_rates: [f64; Input::COUNT],
-    cache: Cache,
+    /// What the step map of the mode last stepped in was made for (`None`: not valid).
+    step_made_for: Option<(ContactMode, StepKey)>,
+    outputs: Option<OutputVector>,
 }
 
 impl Tire {
     /// A tire at rest (all states zero), standing still with its nominal load.
     pub fn new(parameters: Parameters) -> Result<Self, ParameterError> {
         parameters.validate()?;
-        let states = DVector::zeros(parameters.model.equations().state_names().len());
+        let model = parameters.model.equations();
+        let affine = AffineSystem::from_samples(|at| model.system(&parameters, at.vx, at.rho));
+        let lifted_off = ContactSystem::new(affine.lifted_off(LIFT_OFF_RELAXATION_TIME));
         let mut inputs = [0.0; Input::COUNT];
-        inputs[Input::Fz as usize] = parameters.get(super::Parameter::NominalLoad);
+        inputs[Input::Fz as usize] = parameters.get(Parameter::NominalLoad);
         Ok(Self {
             parameters,
-            states,
+            rolling: ContactSystem::new(affine),
+            lifted_off,
+            states: StateVector::zeros(),
             inputs,
             input_rates: [0.0; Input::COUNT],
-            cache: Cache {
-                system: None,
-                step: None,
-            },
+            step_made_for: None,
+            outputs: None,
         })
     }
 
@@ -107,24 +110,26 @@ impl Tire {
         self.model().state_names()
     }
 
-    pub fn states(&self) -> &DVector<f64> {
-        &self.states
+    /// The states, one per name in [`Tire::state_names`].
+    pub fn states(&self) -> &[f64] {
+        &self.states.as_slice()[..self.state_names().len()]
     }
 
     /// Replaces the states; the slice must have one finite value per state.
     pub fn set_states(&mut self, states: &[f64]) -> Result<(), String> {
-        if states.len() != self.states.len() {
+        let count = self.state_names().len();
+        if states.len() != count {
             return Err(format!(
-                "the {} model has {} states, got {}",
+                "the {} model has {count} states, got {}",
                 self.parameters.model.name(),
-                self.states.len(),
                 states.len()
             ));
         }
         if let Some(bad) = states.iter().find(|v| !v.is_finite()) {
             return Err(format!("state value {bad} is not finite"));
         }
-        self.states.copy_from_slice(states);
+        self.states.as_mut_slice()[..count].copy_from_slice(states);
+        self.outputs = None;
         Ok(())
     }
 
@@ -132,9 +137,25 @@ impl Tire {
         self.inputs[input as usize]
     }
 
+    /// Every input, indexed by `Input as usize`.
+    pub fn inputs(&self) -> [f64; Input::COUNT] {
+        self.inputs
+    }
+
+    /// Sets every input at once; callers make sure they are finite.
+    pub fn set_inputs(&mut self, inputs: [f64; Input::COUNT]) {
+        if inputs.map(f64::to_bits) != self.inputs.map(f64::to_bits) {
+            self.inputs = inputs;
+            self.outputs = None;
+        }
+    }
+
     /// Sets an input; callers make sure it is finite.
     pub fn set_input(&mut self, input: Input, value: f64) {
-        self.inputs[input as usize] = value;
+        if self.inputs[input as usize].to_bits() != value.to_bits() {
+            self.inputs[input as usize] = value;
+            self.outputs = None;
+        }
     }
 
     pub fn input_rate(&self, input: Input) -> f64 {
@@ -151,88 +172,79 @@ impl Tire {
         ContactMode::from_load(self.input(Input::Fz))
     }
 
-    fn driving_inputs(values: &[f64; Input::COUNT]) -> Vector3<f64> {
-        Vector3::new(
+    fn driving_inputs(values: &[f64; Input::COUNT]) -> DrivingVector {
+        DrivingVector::new(
             values[Input::Vy as usize],
             values[Input::SteerRate as usize],
             values[Input::Vsx as usize],
         )
     }
 
-    /// The system for speed `vx` and rolling speed `rho` in a contact mode (not cached).
-    pub fn system_at(&self, vx: f64, rho: f64, mode: ContactMode) -> LinearSystem {
-        let mut system = self.model().system(&self.parameters, vx, rho);
-        if mode == ContactMode::LiftedOff {
-            for load in Output::LOADS {
-                system.c.row_mut(load as usize).fill(0.0);
-            }
-            system.d.fill(0.0);
-            system.b.fill(0.0);
-            system.a.fill_with_identity();
-            system.a.scale_mut(-1.0 / LIFT_OFF_RELAXATION_TIME);
+    fn contact_system(&mut self, mode: ContactMode) -> &mut ContactSystem {
+        match mode {
+            ContactMode::Rolling => &mut self.rolling,
+            ContactMode::LiftedOff => &mut self.lifted_off,
         }
-        system
     }
 
-    /// Makes the cached system the one for the current speed and contact mode.
-    fn refresh_system(&mut self) {
-        let vx = self.input(Input::Vx);
+    /// The system at the current inputs.
+    fn current_system(&mut self) -> &StateSpace {
+        let point = OperatingPoint::rolling(self.input(Input::Vx));
         let mode = self.contact_mode();
-        let fresh = matches!(&self.cache.system, Some((bits, m, _)) if *bits == vx.to_bits() && *m == mode);
-        if !fresh {
-            let system = self.system_at(vx, vx.abs(), mode);
-            self.cache.system = Some((vx.to_bits(), mode, system));
-        }
+        self.contact_system(mode).at(point)
     }
 
-    /// The system made by the last [`Tire::refresh_system`].
-    fn cached_system(&self) -> &LinearSystem {
-        &self
-            .cache
-            .system
-            .as_ref()
-            .expect("refresh_system fills the cache")
-            .2
+    /// The system at speed `vx` in a contact mode (for checks against other integrators).
+    pub fn system_at(&mut self, vx: f64, mode: ContactMode) -> StateSpace {
+        self.contact_system(mode).at(OperatingPoint::rolling(vx)).clone()
     }
 
     /// Outputs for the current states and inputs.
     pub fn outputs(&mut self) -> OutputVector {
-        self.refresh_system();
-        self.cached_system()
-            .outputs(&self.states, &Self::driving_inputs(&self.inputs))
+        *self.outputs_ref()
+    }
+
+    /// Outputs for the current states and inputs, computed once per change of either.
+    pub fn outputs_ref(&mut self) -> &OutputVector {
+        if self.outputs.is_none() {
+            let u = Self::driving_inputs(&self.inputs);
+            let states = self.states;
+            let outputs = self.current_system().outputs(&states, &u);
+            self.outputs = Some(outputs);
+        }
+        self.outputs.as_ref().expect("computed above")
     }
 
     /// Time derivatives of the outputs at the current states, inputs and input rates
     /// (exact for a constant vx and normal load).
     pub fn output_rates(&mut self) -> OutputVector {
-        self.refresh_system();
         let u = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
-        self.cached_system().output_rates(&self.states, &u, &du)
+        let states = self.states;
+        self.current_system().output_rates(&states, &u, &du)
     }
 
     /// Partial derivatives of every output with respect to one input, at the current
-    /// states and inputs. Outputs are affine in vx and in rho = |vx| separately, so unit
-    /// differences give the derivatives exactly; d|vx|/dvx is taken as 0 at vx = 0, the
-    /// value a central difference gives. The normal load only switches the contact mode,
-    /// so its derivative is zero.
+    /// states and inputs. Outputs are affine in vx and in rho = |vx| separately, so the
+    /// stepper's slopes give the derivatives exactly; d|vx|/dvx is taken as 0 at vx = 0,
+    /// the value a central difference gives. The normal load only switches the contact
+    /// mode, so its derivative is zero.
     pub fn output_sensitivity(&mut self, input: Input) -> OutputVector {
-        let mode = self.contact_mode();
         if let Some(driving) = input.driving() {
-            self.refresh_system();
-            let feedthrough = self.cached_system().d.column(driving as usize);
+            let feedthrough = self.current_system().d.column(driving as usize);
             return OutputVector::from_iterator(feedthrough.iter().copied());
         }
         if input == Input::Fz {
             return OutputVector::zeros();
         }
         let vx = self.input(Input::Vx);
-        let rho = vx.abs();
         let u = Self::driving_inputs(&self.inputs);
-        let at = |vx: f64, rho: f64| self.system_at(vx, rho, mode).outputs(&self.states, &u);
-        let base = at(vx, rho);
-        let by_vx = at(vx + 1.0, rho) - base;
-        let by_rho = at(vx, rho + 1.0) - base;
+        let affine = match self.contact_mode() {
+            ContactMode::Rolling => self.rolling.affine(),
+            ContactMode::LiftedOff => self.lifted_off.affine(),
+        };
+        let by_vx = affine.output_slope(0, &self.states, &u);
+        let by_rho = affine.output_slope(1, &self.states, &u);
         let rho_per_vx = if vx > 0.0 {
             1.0
         } else if vx < 0.0 {
@@ -249,32 +261,48 @@ impl Tire {
         if !(h > 0.0 && h.is_finite()) {
             return Err(StepError::StepSize(h));
         }
+        let ramping = self.input_rates != [0.0; Input::COUNT];
         let middle = |input: Input| self.input(input) + 0.5 * h * self.input_rate(input);
-        let vx = middle(Input::Vx);
-        let mode = ContactMode::from_load(middle(Input::Fz));
-        let fresh = matches!(&self.cache.step,
-            Some((vx_bits, m, h_bits, _)) if *vx_bits == vx.to_bits() && *m == mode && *h_bits == h.to_bits());
-        if !fresh {
-            let step = self.system_at(vx, vx.abs(), mode).discretise(h);
-            self.cache.step = Some((vx.to_bits(), mode, h.to_bits(), step));
-        }
-        let step = &self.cache.step.as_ref().expect("filled above").3;
+        let (vx, load) = if ramping {
+            (middle(Input::Vx), middle(Input::Fz))
+        } else {
+            (self.input(Input::Vx), self.input(Input::Fz))
+        };
+        let point = OperatingPoint::rolling(vx);
+        let mode = ContactMode::from_load(load);
+        let made_for = Some((mode, (point.key(), h.to_bits())));
+        let fresh = self.step_made_for == made_for;
+        // Invalid until made: a refused step must not leave a half-made map behind.
+        self.step_made_for = None;
+        let system = match mode {
+            ContactMode::Rolling => &mut self.rolling,
+            ContactMode::LiftedOff => &mut self.lifted_off,
+        };
+        let map = if fresh {
+            system.step_map()
+        } else {
+            system.make_step_map(point, h)
+        };
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
-        let next_states = step.advance(&self.states, &u0, &du);
-        let mut next_inputs = self.inputs;
-        for (value, rate) in next_inputs.iter_mut().zip(self.input_rates) {
-            *value += h * rate;
-        }
-        if next_states
-            .iter()
-            .chain(next_inputs.iter())
-            .any(|v| !v.is_finite())
-        {
+        let next_states = map.advance(&self.states, &u0, &du);
+        // v * 0 is 0 for every finite v and NaN otherwise: one branch for all values.
+        let zero_if_finite = |values: &[f64]| values.iter().map(|v| v * 0.0).sum::<f64>() == 0.0;
+        if ramping {
+            let mut next_inputs = self.inputs;
+            for (value, rate) in next_inputs.iter_mut().zip(self.input_rates) {
+                *value += h * rate;
+            }
+            if !(zero_if_finite(next_states.as_slice()) && zero_if_finite(&next_inputs)) {
+                return Err(StepError::NotFinite);
+            }
+            self.inputs = next_inputs;
+        } else if !zero_if_finite(next_states.as_slice()) {
             return Err(StepError::NotFinite);
         }
+        self.step_made_for = made_for;
         self.states = next_states;
-        self.inputs = next_inputs;
+        self.outputs = None;
         Ok(())
     }
 

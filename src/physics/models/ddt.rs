@@ -5,12 +5,10 @@
 //! `Mz = -(C_yaw uPsi + D_yaw duPsi/dt) - trail Fy`; longitudinally as RLT plus D_long.
 //! The tread dampers keep it damped at standstill.
 
-use nalgebra::DVector;
-
 use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
-use crate::physics::linear::{LinearSystem, SystemBuilder};
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
+use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
 
 pub struct Ddt;
 
@@ -27,7 +25,7 @@ impl TireLagModel for Ddt {
         &["uPsi", "uY", "uX"]
     }
 
-    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> LinearSystem {
+    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> StateSpace {
         let mut b = SystemBuilder::new(3);
         let yaw_stiffness = p.get(Parameter::YawStiffness);
         let yaw_damping = p.get(Parameter::YawDamping);
@@ -56,7 +54,7 @@ impl TireLagModel for Ddt {
         b.finish()
     }
 
-    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+    fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         0.5 * p.get(Parameter::YawStiffness) * x[YAW].powi(2)
             + 0.5 * p.lateral_stiffness() * x[LATERAL].powi(2)
             + longitudinal(p).energy(x)

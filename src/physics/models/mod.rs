@@ -1,5 +1,5 @@
 //! The four tire-lag models. Each is a small file that writes its equations (SPEC
-//! section 4) into a [`LinearSystem`] for a given speed; the [`Tire`](super::Tire) does
+//! section 4) into a [`StateSpace`] for a given speed; the [`Tire`](super::Tire) does
 //! the rest. Shared pieces (relaxation-length lag, contact mass) live here.
 
 mod ddt;
@@ -7,11 +7,9 @@ mod ring_body;
 mod rlt;
 mod second_order;
 
-use nalgebra::DVector;
-
-use super::linear::{LinearSystem, SystemBuilder};
 use super::parameters::{Parameter, Parameters};
 use super::signals::{DrivingInput, Output};
+use super::state_space::{StateSpace, StateVector, SystemBuilder};
 
 /// Which tire-lag model the tire uses; the values are those of the FMI enumeration
 /// `TireLagModel`.
@@ -64,10 +62,10 @@ pub trait TireLagModel: Sync {
     /// The state-space system at longitudinal speed `vx` and rolling speed `rho`.
     /// `rho` is `|vx|`; it is passed separately so that the derivative of the system with
     /// respect to each can be taken exactly (the matrices are affine in both).
-    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> LinearSystem;
+    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> StateSpace;
 
     /// Mechanical energy stored in the tire (springs and moving masses), J.
-    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64;
+    fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64;
 }
 
 /// First-order relaxation of a deflection `u` driven by a slip velocity:
@@ -104,7 +102,7 @@ impl Relaxation {
         }
     }
 
-    fn energy(&self, x: &DVector<f64>) -> f64 {
+    fn energy(&self, x: &StateVector) -> f64 {
         0.5 * self.stiffness * x[self.state].powi(2)
     }
 }
@@ -165,7 +163,7 @@ impl ContactMass {
         b.output(output, &[(self.tread, 1.0), (self.offset, -1.0)], &[]);
     }
 
-    fn energy(&self, x: &DVector<f64>) -> f64 {
+    fn energy(&self, x: &StateVector) -> f64 {
         0.5 * (self.carcass_stiffness * x[self.offset].powi(2)
             + self.tread_stiffness * x[self.tread].powi(2)
             + self.mass * x[self.velocity].powi(2))

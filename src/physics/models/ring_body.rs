@@ -5,12 +5,10 @@
 //! with equivalent mass `ringInertia/Re^2`. Fx passes through the joint (`-kT_x uTx`);
 //! My passes through the ring spring-damper, `-Re (k_x xr + ringDampingX (wx - vsx))`.
 
-use nalgebra::DVector;
-
 use super::{ContactMass, TireLagModel, write_common_outputs};
-use crate::physics::linear::{LinearSystem, SystemBuilder};
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
+use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
 
 pub struct RingBody;
 
@@ -46,7 +44,7 @@ impl TireLagModel for RingBody {
         &["eta", "uT", "w", "xr", "uTx", "wx"]
     }
 
-    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> LinearSystem {
+    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> StateSpace {
         let mut b = SystemBuilder::new(6);
         let contact = lateral(p);
         contact.write(&mut b, rho);
@@ -63,7 +61,7 @@ impl TireLagModel for RingBody {
         b.finish()
     }
 
-    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+    fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         lateral(p).energy(x) + circumferential(p).energy(x)
     }
 }

@@ -3,12 +3,10 @@
 //! `duY/dt = vy - (rho/sigmaY) uY`, `Fy = -C_y uY`; the same longitudinally.
 //! At standstill it is an undamped spring of stiffness `C_y = Calpha/sigmaY`.
 
-use nalgebra::DVector;
-
 use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
-use crate::physics::linear::{LinearSystem, SystemBuilder};
 use crate::physics::parameters::Parameters;
 use crate::physics::signals::{DrivingInput, Output};
+use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
 
 pub struct Rlt;
 
@@ -32,7 +30,7 @@ impl TireLagModel for Rlt {
         &["uY", "uX"]
     }
 
-    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> LinearSystem {
+    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> StateSpace {
         let mut b = SystemBuilder::new(2);
         lateral(p).write(&mut b, rho);
         Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, rho);
@@ -41,7 +39,7 @@ impl TireLagModel for Rlt {
         b.finish()
     }
 
-    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+    fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         lateral(p).energy(x) + Relaxation::longitudinal(p, LONGITUDINAL, 0.0).energy(x)
     }
 }

@@ -5,12 +5,10 @@
 //! (`k_y = Calpha/(sigmaY - sigmaTread)`, `carcassDampingY`) and the lagged tread spring
 //! (`kT_y = Calpha/sigmaTread`); longitudinally it is RLT.
 
-use nalgebra::DVector;
-
 use super::{ContactMass, Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
-use crate::physics::linear::{LinearSystem, SystemBuilder};
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::Output;
+use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
 
 pub struct SecondOrder;
 
@@ -31,7 +29,7 @@ impl TireLagModel for SecondOrder {
         &["eta", "uT", "w", "uX"]
     }
 
-    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> LinearSystem {
+    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> StateSpace {
         let mut b = SystemBuilder::new(4);
         let contact = lateral(p);
         contact.write(&mut b, rho);
@@ -43,7 +41,7 @@ impl TireLagModel for SecondOrder {
         b.finish()
     }
 
-    fn stored_energy(&self, p: &Parameters, x: &DVector<f64>) -> f64 {
+    fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         lateral(p).energy(x) + Relaxation::longitudinal(p, LONGITUDINAL, 0.0).energy(x)
     }
 }

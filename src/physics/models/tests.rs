@@ -4,6 +4,7 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 use proptest::prelude::*;
 
+use crate::physics::tire::ContactMode;
 use crate::physics::{Input, ModelKind, Output, Parameter, Parameters, Tire};
 
 fn tire(model: ModelKind) -> Tire {
@@ -101,18 +102,27 @@ fn rk4(
 
 #[test]
 fn discretisation_matches_fine_integration_for_held_and_ramped_inputs() {
-    let p = Parameters::default();
     for model in ModelKind::ALL {
-        let system = model.equations().system(&p, 1.6, 1.6);
-        let n = system.state_count();
-        let x0 = DVector::from_fn(n, |i, _| 1e-3 * (i as f64 + 1.0));
-        let (u0, du) = (Vector3::new(0.1, 0.05, -0.02), Vector3::new(-0.3, 0.2, 0.1));
-        let h = 0.02;
-        let step = system.discretise(h);
-        let exact = step.advance(&x0, &u0, &du);
-        let reference = rk4(&system.a, &system.b, &x0, |t| u0 + du * t, h, 20_000);
-        let scale = reference.amax();
-        assert!((exact - reference).amax() <= 1e-9 * scale, "{model:?}");
+        for (vx, h) in [(1.6, 0.02), (-20.0, 0.003), (0.0, 0.05)] {
+            let mut t = tire(model);
+            let system = t.system_at(vx, ContactMode::Rolling);
+            let n = system.states;
+            let a = DMatrix::from_fn(n, n, |i, j| system.a[(i, j)]);
+            let b = DMatrix::from_fn(n, 3, |i, k| system.b[(i, k)]);
+            let x0 = DVector::from_fn(n, |i, _| 1e-3 * (i as f64 + 1.0));
+            let (u0, du) = (Vector3::new(0.1, 0.05, -0.02), Vector3::new(-0.3, 0.2, 0.1));
+            t.set_states(x0.as_slice()).unwrap();
+            t.set_input(Input::Vx, vx);
+            for (input, k) in [(Input::Vy, 0), (Input::SteerRate, 1), (Input::Vsx, 2)] {
+                t.set_input(input, u0[k]);
+                t.set_input_rate(input, du[k]);
+            }
+            t.step(h).unwrap();
+            let exact = DVector::from_column_slice(t.states());
+            let reference = rk4(&a, &b, &x0, |t| u0 + du * t, h, 20_000);
+            let scale = reference.amax();
+            assert!((exact - &reference).amax() <= 1e-9 * scale, "{model:?} at {vx}");
+        }
     }
 }
 

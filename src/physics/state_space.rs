@@ -1,0 +1,118 @@
+//! Linear state-space systems of at most [`MAX_STATES`] states, in fixed-size storage.
+
+use nalgebra::{SMatrix, SVector};
+
+use super::signals::{DrivingInput, Output, OutputVector};
+
+/// The most states any model has (RingBody: two contact masses of three states).
+pub const MAX_STATES: usize = 6;
+
+/// The states of a model; entries past the model's state count stay zero.
+pub type StateVector = SVector<f64, MAX_STATES>;
+/// `u = [vy, steerRate, vsx]`, the inputs that drive the states.
+pub type DrivingVector = SVector<f64, { DrivingInput::COUNT }>;
+pub type StateMatrix = SMatrix<f64, MAX_STATES, MAX_STATES>;
+pub type InputMatrix = SMatrix<f64, MAX_STATES, { DrivingInput::COUNT }>;
+pub type OutputMatrix = SMatrix<f64, { Output::COUNT }, MAX_STATES>;
+pub type FeedthroughMatrix = SMatrix<f64, { Output::COUNT }, { DrivingInput::COUNT }>;
+
+/// `dx/dt = A x + B u`, `y = C x + D u` with `u = [vy, steerRate, vsx]` and `y` the
+/// outputs in [`Output`] order. Rows and columns past `states` are zero.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StateSpace {
+    pub states: usize,
+    pub a: StateMatrix,
+    pub b: InputMatrix,
+    pub c: OutputMatrix,
+    pub d: FeedthroughMatrix,
+}
+
+impl StateSpace {
+    /// A system with `states` states and every matrix zero.
+    pub fn zeros(states: usize) -> Self {
+        assert!(states <= MAX_STATES, "{states} states: at most {MAX_STATES}");
+        Self {
+            states,
+            a: StateMatrix::zeros(),
+            b: InputMatrix::zeros(),
+            c: OutputMatrix::zeros(),
+            d: FeedthroughMatrix::zeros(),
+        }
+    }
+
+    /// `y = C x + D u`.
+    pub fn outputs(&self, x: &StateVector, u: &DrivingVector) -> OutputVector {
+        // Column by column over the states in use (a small model leaves most columns zero).
+        let mut y = self.d * u;
+        for (j, &xj) in x.iter().enumerate().take(self.states) {
+            y.axpy(xj, &self.c.column(j), 1.0);
+        }
+        y
+    }
+
+    /// `dx/dt = A x + B u`.
+    pub fn state_rates(&self, x: &StateVector, u: &DrivingVector) -> StateVector {
+        self.a * x + self.b * u
+    }
+
+    /// `dy/dt = C dx/dt + D du/dt`.
+    pub fn output_rates(&self, x: &StateVector, u: &DrivingVector, du: &DrivingVector) -> OutputVector {
+        self.c * self.state_rates(x, u) + self.d * du
+    }
+}
+
+/// Writes a [`StateSpace`] equation by equation, in the words of the model papers.
+pub struct SystemBuilder {
+    system: StateSpace,
+}
+
+impl SystemBuilder {
+    pub fn new(states: usize) -> Self {
+        Self {
+            system: StateSpace::zeros(states),
+        }
+    }
+
+    /// `d x[state]/dt = sum(coefficient * x[j]) + sum(coefficient * u[k])`.
+    pub fn rate(&mut self, state: usize, states: &[(usize, f64)], inputs: &[(DrivingInput, f64)]) {
+        for &(j, coefficient) in states {
+            self.system.a[(state, j)] += coefficient;
+        }
+        for &(k, coefficient) in inputs {
+            self.system.b[(state, k as usize)] += coefficient;
+        }
+    }
+
+    /// Adds `sum(coefficient * x[j]) + sum(coefficient * u[k])` to an output.
+    pub fn output(&mut self, output: Output, states: &[(usize, f64)], inputs: &[(DrivingInput, f64)]) {
+        for &(j, coefficient) in states {
+            self.system.c[(output as usize, j)] += coefficient;
+        }
+        for &(k, coefficient) in inputs {
+            self.system.d[(output as usize, k as usize)] += coefficient;
+        }
+    }
+
+    /// Adds `coefficient * d x[state]/dt` to an output (a damper force); the state's
+    /// rate equation must already be written.
+    pub fn output_rate(&mut self, output: Output, state: usize, coefficient: f64) {
+        let o = output as usize;
+        let a_row = self.system.a.row(state) * coefficient;
+        let b_row = self.system.b.row(state) * coefficient;
+        self.system.c.row_mut(o).zip_apply(&a_row, |c, a| *c += a);
+        self.system.d.row_mut(o).zip_apply(&b_row, |d, b| *d += b);
+    }
+
+    /// Adds `coefficient * source` to an output; `source` must already be written.
+    pub fn output_from(&mut self, output: Output, source: Output, coefficient: f64) {
+        let (o, s) = (output as usize, source as usize);
+        let c_row = self.system.c.row(s) * coefficient;
+        let d_row = self.system.d.row(s) * coefficient;
+        self.system.c.row_mut(o).zip_apply(&c_row, |c, a| *c += a);
+        self.system.d.row_mut(o).zip_apply(&d_row, |d, b| *d += b);
+    }
+
+    pub fn finish(self) -> StateSpace {
+        self.system
+    }
+}

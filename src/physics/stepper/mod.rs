@@ -1,0 +1,220 @@
+//! The exact stepper: how a communication step is computed.
+//!
+//! A model writes its equations once ([`crate::physics::models`]); the stepper makes them
+//! fast without touching them:
+//!
+//! 1. **Affine form** ([`affine`]). When the parameters are set, the model's system is
+//!    sampled at rest and at a unit step of each operating-point coordinate (vx, rho).
+//!    The matrices are affine in these, so a new speed rewrites only the few entries that
+//!    vary (relaxation rates, couplings, damper rows) in place.
+//! 2. **Blocks** ([`blocks`]). The states split into groups that do not feed each other:
+//!    RLT two 1x1 lags, DDT a 2x2 triangular yaw-lateral pair and a 1x1 lag, SecondOrder a
+//!    3x3 contact mass and a 1x1 lag, RingBody two 3x3 contact masses. Each block is
+//!    balanced once with power-of-two scalings.
+//! 3. **Phi-functions per block** ([`phi`]). For a step of length h with inputs
+//!    `u0 + t du`, each block's `e^(hA)`, `h phi1(hA) B` and `h^2 phi2(hA) B` come from
+//!    one Taylor series with scaling and squaring on fixed-size matrices; no division by
+//!    the speed anywhere. The blocks together give the [`StepMap`]
+//!    `x(h) = transition x(0) + hold u0 + ramp du`, exact to rounding for any h.
+//! 4. **Reuse.** The step map is kept while the operating point, contact mode and step
+//!    size are unchanged, so a step at constant speed is three small matrix products.
+//!
+//! The state at any time within a step is the same map for a shorter h, which is how an
+//! event inside a step is located. Nothing here allocates.
+
+pub mod affine;
+pub mod blocks;
+pub mod phi;
+
+use nalgebra::SMatrix;
+
+use super::signals::DrivingInput;
+use super::state_space::{DrivingVector, InputMatrix, MAX_STATES, StateMatrix, StateSpace, StateVector};
+pub use affine::{AffineSystem, OperatingPoint};
+pub use blocks::{Block, Blocks};
+
+/// The exact one-step map for inputs `u(t) = u0 + t du`, t from 0 to h:
+/// `x(h) = transition x(0) + hold u0 + ramp du`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepMap {
+    /// How many states the map moves; the rest stay zero.
+    pub states: usize,
+    pub transition: StateMatrix,
+    pub hold: InputMatrix,
+    pub ramp: InputMatrix,
+}
+
+impl StepMap {
+    pub fn advance(&self, x: &StateVector, u0: &DrivingVector, du: &DrivingVector) -> StateVector {
+        // Column by column over the states in use; the ramp only when an input ramps.
+        let mut next = self.hold * u0;
+        for (j, &xj) in x.iter().enumerate().take(self.states) {
+            next.axpy(xj, &self.transition.column(j), 1.0);
+        }
+        if *du != DrivingVector::zeros() {
+            next += self.ramp * du;
+        }
+        next
+    }
+
+    /// A map that leaves every state at zero.
+    pub fn zeros() -> Self {
+        StepMap {
+            states: 0,
+            transition: StateMatrix::zeros(),
+            hold: InputMatrix::zeros(),
+            ramp: InputMatrix::zeros(),
+        }
+    }
+
+    /// The exact step map of `system` over `h` seconds, block by block. Not finite if the
+    /// system or `h` is not.
+    pub fn new(system: &StateSpace, blocks: &Blocks, h: f64) -> Self {
+        let mut map = Self::zeros();
+        map.make(system, blocks, h);
+        map
+    }
+
+    /// Makes this the exact step map of `system` over `h` seconds, in place.
+    pub fn make(&mut self, system: &StateSpace, blocks: &Blocks, h: f64) {
+        self.states = system.states;
+        self.transition.fill(0.0);
+        self.hold.fill(0.0);
+        self.ramp.fill(0.0);
+        self.make_blocks(system, blocks, h);
+    }
+
+    /// Writes every block's entries; the entries between blocks must already be zero
+    /// (a map made before for the same blocks).
+    fn make_blocks(&mut self, system: &StateSpace, blocks: &Blocks, h: f64) {
+        for block in blocks.iter() {
+            match block.size {
+                1 => self.add_block::<1>(system, block, h),
+                2 => self.add_block::<2>(system, block, h),
+                3 => self.add_block::<3>(system, block, h),
+                4 => self.add_block::<4>(system, block, h),
+                5 => self.add_block::<5>(system, block, h),
+                _ => self.add_block::<MAX_STATES>(system, block, h),
+            }
+        }
+    }
+
+    fn add_block<const N: usize>(&mut self, system: &StateSpace, block: &Block, h: f64) {
+        let states = &block.states[..N];
+        if N == 1 {
+            // A single lag: closed forms, no matrices.
+            let state = states[0];
+            let (exp, phi1, phi2) = phi::scalar_phi_functions(h * system.a[(state, state)]);
+            self.transition[(state, state)] = exp;
+            for k in 0..DrivingInput::COUNT {
+                let b = system.b[(state, k)];
+                self.hold[(state, k)] = h * phi1 * b;
+                self.ramp[(state, k)] = h * h * phi2 * b;
+            }
+            return;
+        }
+        let x = SMatrix::<f64, N, N>::from_fn(|i, j| h * system.a[(states[i], states[j])]);
+        let inputs = SMatrix::<f64, N, { DrivingInput::COUNT }>::from_fn(|i, k| system.b[(states[i], k)]);
+        let phi = match *x.as_slice() {
+            // A triangular pair (DDT's yaw lag driving its lateral lag): closed forms.
+            // Column-major: [x00, x10, x01, x11].
+            [z1, c, 0.0, z2] => resize(phi::lower_triangular_phi_functions(z1, z2, c)),
+            [z1, 0.0, c, z2] => resize(phi::lower_triangular_phi_functions(z1, z2, c).transposed()),
+            _ => balanced_phi_functions(&x, block),
+        };
+        let hold = phi.phi1 * inputs * h;
+        let ramp = phi.phi2 * inputs * (h * h);
+        for (i, &row) in states.iter().enumerate() {
+            for (j, &column) in states.iter().enumerate() {
+                self.transition[(row, column)] = phi.exp[(i, j)];
+            }
+            for k in 0..DrivingInput::COUNT {
+                self.hold[(row, k)] = hold[(i, k)];
+                self.ramp[(row, k)] = ramp[(i, k)];
+            }
+        }
+    }
+}
+
+/// The phi-functions of a block's `x = hA`, computed on the balanced `S^-1 x S` (whose
+/// norm reflects the dynamics, not the units) and brought back: `f(x) = S f(S^-1 x S) S^-1`.
+fn balanced_phi_functions<const N: usize>(x: &SMatrix<f64, N, N>, block: &Block) -> phi::PhiFunctions<N> {
+    let (scale, inverse) = (&block.scale[..N], &block.inverse_scale[..N]);
+    let balanced = SMatrix::<f64, N, N>::from_fn(|i, j| x[(i, j)] * scale[j] * inverse[i]);
+    let phi = phi::phi_functions(&balanced);
+    let back =
+        |m: SMatrix<f64, N, N>| SMatrix::<f64, N, N>::from_fn(|i, j| m[(i, j)] * scale[i] * inverse[j]);
+    phi::PhiFunctions {
+        exp: back(phi.exp),
+        phi1: back(phi.phi1),
+        phi2: back(phi.phi2),
+    }
+}
+
+/// The same matrices as an N x N type (N is 2 wherever this is called).
+fn resize<const N: usize>(p: phi::PhiFunctions<2>) -> phi::PhiFunctions<N> {
+    let copy = |m: &SMatrix<f64, 2, 2>| SMatrix::<f64, N, N>::from_fn(|i, j| m[(i, j)]);
+    phi::PhiFunctions {
+        exp: copy(&p.exp),
+        phi1: copy(&p.phi1),
+        phi2: copy(&p.phi2),
+    }
+}
+
+/// A model's system in one contact mode, with its blocks, the system at the operating
+/// point last asked for, and the step map last made.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactSystem {
+    affine: AffineSystem,
+    blocks: Blocks,
+    current: StateSpace,
+    current_point: [u64; OperatingPoint::COORDINATES],
+    /// Made for these blocks only, so the entries between blocks stay zero.
+    map: StepMap,
+}
+
+impl ContactSystem {
+    pub fn new(affine: AffineSystem) -> Self {
+        let blocks = Blocks::new(affine.states(), &affine.state_coupling());
+        let current = affine.at_rest().clone();
+        let current_point = OperatingPoint { vx: 0.0, rho: 0.0 }.key();
+        let map = StepMap::new(&current, &blocks, 0.0);
+        Self {
+            affine,
+            blocks,
+            current,
+            current_point,
+            map,
+        }
+    }
+
+    pub fn affine(&self) -> &AffineSystem {
+        &self.affine
+    }
+
+    pub fn blocks(&self) -> &Blocks {
+        &self.blocks
+    }
+
+    /// The system at `point`; only its varying entries are rewritten, and only when the
+    /// point changed.
+    pub fn at(&mut self, point: OperatingPoint) -> &StateSpace {
+        if point.key() != self.current_point {
+            self.affine.evaluate(point, &mut self.current);
+            self.current_point = point.key();
+        }
+        &self.current
+    }
+
+    /// Makes the exact step map at `point` over `h` seconds.
+    pub fn make_step_map(&mut self, point: OperatingPoint, h: f64) -> &StepMap {
+        self.at(point);
+        self.map.make_blocks(&self.current, &self.blocks, h);
+        &self.map
+    }
+
+    /// The step map last made.
+    pub fn step_map(&self) -> &StepMap {
+        &self.map
+    }
+}

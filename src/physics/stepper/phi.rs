@@ -1,0 +1,333 @@
+//! The exponential and the first two phi-functions of a small matrix X:
+//! `e^X`, `phi1(X) = sum X^j/(j+1)!`, `phi2(X) = sum X^j/(j+2)!`.
+//!
+//! Over a step of length h, `dx/dt = A x + B (u0 + t du)` has the exact solution
+//! `x(h) = e^(hA) x(0) + h phi1(hA) B u0 + h^2 phi2(hA) B du`. The phi-functions are entire,
+//! so nothing divides by an eigenvalue: a lag at zero speed (A = 0) gives phi1 = 1, phi2 = 1/2.
+//!
+//! Method: scale X by 2^-s until its 1-norm is at most [`SCALED_NORM`], sum the Taylor
+//! series of phi2 to the degree that leaves a remainder below the unit roundoff, derive
+//! phi1 = I + X phi2 and e^X = I + X phi1, then square back s times with
+//! `phi2(2X) = (e^X phi2 + phi1 + phi2)/4`, `phi1(2X) = (e^X + I) phi1/2`, `e^(2X) = (e^X)^2`.
+//! Callers balance X first (`blocks`), so that the norm reflects the dynamics, not units.
+
+use nalgebra::SMatrix;
+
+/// The 1-norm the scaled matrix is brought under before the Taylor series.
+const SCALED_NORM: f64 = 0.5;
+/// Highest Taylor degree; at 1-norm 0.5 the remainder is below 2^-53 from degree 13.
+const MAX_DEGREE: usize = 16;
+/// 1/k! for k = 0..=MAX_DEGREE + 2.
+const INVERSE_FACTORIAL: [f64; MAX_DEGREE + 3] = inverse_factorials();
+
+const fn inverse_factorials() -> [f64; MAX_DEGREE + 3] {
+    let mut table = [1.0; MAX_DEGREE + 3];
+    let mut k = 1;
+    while k < table.len() {
+        table[k] = table[k - 1] / k as f64;
+        k += 1;
+    }
+    table
+}
+
+/// `e^X`, `phi1(X)` and `phi2(X)` of one matrix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhiFunctions<const N: usize> {
+    pub exp: SMatrix<f64, N, N>,
+    pub phi1: SMatrix<f64, N, N>,
+    pub phi2: SMatrix<f64, N, N>,
+}
+
+/// The number of halvings that bring `norm` to at most [`SCALED_NORM`]:
+/// `ceil(log2(norm / SCALED_NORM))`, read off the bits of the ratio.
+fn squarings_for(norm: f64) -> i32 {
+    let ratio = norm / SCALED_NORM;
+    if ratio <= 1.0 {
+        return 0;
+    }
+    let bits = ratio.to_bits();
+    let exponent = ((bits >> 52) & 0x7ff) as i32 - 1023;
+    let exact_power = bits & ((1 << 52) - 1) == 0;
+    if exact_power { exponent } else { exponent + 1 }
+}
+
+/// `DEGREE_THRESHOLDS[m]`: the largest norm theta for which the Taylor remainder bound
+/// theta^(m+1)/(m+1)! is at most the unit roundoff 2^-53 (by bisection, at compile time).
+const DEGREE_THRESHOLDS: [f64; MAX_DEGREE] = {
+    let mut thresholds = [0.0; MAX_DEGREE];
+    let mut m = 0;
+    while m < MAX_DEGREE {
+        let (mut low, mut high) = (0.0, 1.0);
+        let mut iteration = 0;
+        while iteration < 80 {
+            let middle = 0.5 * (low + high);
+            let mut bound = 1.0;
+            let mut k = 1;
+            while k <= m + 1 {
+                bound *= middle / k as f64;
+                k += 1;
+            }
+            if bound <= f64::EPSILON / 2.0 {
+                low = middle;
+            } else {
+                high = middle;
+            }
+            iteration += 1;
+        }
+        thresholds[m] = low;
+        m += 1;
+    }
+    thresholds
+};
+
+/// 2^exponent for exponents in the normal range, built from its bits.
+pub fn power_of_two(exponent: i32) -> f64 {
+    let exponent = exponent.clamp(-1022, 1023);
+    f64::from_bits(((exponent + 1023) as u64) << 52)
+}
+
+impl<const N: usize> PhiFunctions<N> {
+    /// The phi-functions of the transposed matrix: f(X^T) = f(X)^T.
+    pub fn transposed(&self) -> Self {
+        PhiFunctions {
+            exp: self.exp.transpose(),
+            phi1: self.phi1.transpose(),
+            phi2: self.phi2.transpose(),
+        }
+    }
+}
+
+fn one_norm<const N: usize>(x: &SMatrix<f64, N, N>) -> f64 {
+    x.column_iter()
+        .map(|column| column.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max)
+}
+
+/// `(e^z, phi1(z), phi2(z))` of a scalar: the same series as [`phi_functions`] where
+/// |z| is small, the closed forms `(e^z - 1)/z` and `(e^z - 1 - z)/z^2` (with `expm1`,
+/// which loses at most two bits there) where it is not.
+pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
+    if z.abs() <= SCALED_NORM {
+        let degree = degree_for(z.abs());
+        let mut phi2 = INVERSE_FACTORIAL[degree + 2];
+        for j in (0..degree).rev() {
+            phi2 = z * phi2 + INVERSE_FACTORIAL[j + 2];
+        }
+        let phi1 = 1.0 + z * phi2;
+        (1.0 + z * phi1, phi1, phi2)
+    } else if z.is_finite() {
+        let expm1 = z.exp_m1();
+        (z.exp(), expm1 / z, (expm1 - z) / (z * z))
+    } else {
+        (f64::NAN, f64::NAN, f64::NAN)
+    }
+}
+
+/// The phi-functions of the lower-triangular `[[z1, 0], [c, z2]]` in closed form: the
+/// diagonal holds `f(z1)`, `f(z2)` and the corner `c f[z1, z2]`, the divided difference
+/// of f. `phi_k[z1, z2]` is the divided difference `exp[z1, z2, 0, ..., 0]` (k zeros),
+/// summed as a series where both points are small and formed recursively otherwise,
+/// dividing only by the larger point, so that equal or nearly equal points lose nothing.
+pub fn lower_triangular_phi_functions(z1: f64, z2: f64, c: f64) -> PhiFunctions<2> {
+    let matrix = |diagonal1: f64, diagonal2: f64, corner: f64| {
+        SMatrix::<f64, 2, 2>::new(diagonal1, 0.0, corner, diagonal2)
+    };
+    let large = if z1.abs() >= z2.abs() { z1 } else { z2 };
+    if large.abs() <= SCALED_NORM {
+        // The Taylor series of phi2 by Horner's rule on the three entries; the corner of
+        // X^n is c h_(n-1)(z1, z2), |h_(n-1)| <= n |large|^(n-1), so two terms past the
+        // diagonal's degree cover it, whatever c is.
+        let degree = (degree_for(large.abs()) + 2).min(MAX_DEGREE);
+        let (mut p1, mut corner, mut p2) =
+            (INVERSE_FACTORIAL[degree + 2], 0.0, INVERSE_FACTORIAL[degree + 2]);
+        for j in (0..degree).rev() {
+            corner = c * p1 + z2 * corner;
+            p1 = z1 * p1 + INVERSE_FACTORIAL[j + 2];
+            p2 = z2 * p2 + INVERSE_FACTORIAL[j + 2];
+        }
+        let phi2 = matrix(p1, p2, corner);
+        let phi1 = matrix(1.0 + z1 * p1, 1.0 + z2 * p2, c * p1 + z2 * corner);
+        let exp = matrix(
+            1.0 + z1 * phi1[(0, 0)],
+            1.0 + z2 * phi1[(1, 1)],
+            c * phi1[(0, 0)] + z2 * phi1[(1, 0)],
+        );
+        return PhiFunctions { exp, phi1, phi2 };
+    }
+    // exp[z1, z2] = e^high phi1(low - high), with high the larger point: phi1 of a
+    // non-positive argument lies in (0, 1], so nothing overflows. Then, dividing only by
+    // the point of larger magnitude (> SCALED_NORM),
+    // phi_k[large, small] = (phi_k(small) - phi_(k-1)[large, small]) / (-large).
+    let (e1, p11, p21) = scalar_phi_functions(z1);
+    let (e2, p12, p22) = scalar_phi_functions(z2);
+    let (phi1_small, phi2_small) = if large == z1 { (p12, p22) } else { (p11, p21) };
+    let (high, low, e_high) = if z1 >= z2 { (z1, z2, e1) } else { (z2, z1, e2) };
+    let exp_divided = e_high * scalar_phi_functions(low - high).1;
+    let phi1_divided = (phi1_small - exp_divided) / -large;
+    let phi2_divided = (phi2_small - phi1_divided) / -large;
+    PhiFunctions {
+        exp: matrix(e1, e2, c * exp_divided),
+        phi1: matrix(p11, p12, c * phi1_divided),
+        phi2: matrix(p21, p22, c * phi2_divided),
+    }
+}
+
+/// Smallest Taylor degree whose remainder bound theta^(m+1)/(m+1)! is below the unit
+/// roundoff.
+fn degree_for(theta: f64) -> usize {
+    DEGREE_THRESHOLDS
+        .iter()
+        .position(|&largest| theta <= largest)
+        .unwrap_or(MAX_DEGREE)
+}
+
+/// The phi-functions of `x`; NaN everywhere if `x` is not finite.
+pub fn phi_functions<const N: usize>(x: &SMatrix<f64, N, N>) -> PhiFunctions<N> {
+    let norm = one_norm(x);
+    // (f64::max passes NaN over, so the entries are checked, not just the norm.)
+    if !(norm.is_finite() && x.iter().all(|v| v.is_finite())) {
+        let nan = SMatrix::from_element(f64::NAN);
+        return PhiFunctions {
+            exp: nan,
+            phi1: nan,
+            phi2: nan,
+        };
+    }
+    let squarings = squarings_for(norm);
+    // A power of two: the scaling itself is exact.
+    let scaled = x * power_of_two(-squarings);
+    let theta = norm * power_of_two(-squarings);
+    // Smallest degree whose remainder bound theta^(m+1)/(m+1)! is below the unit roundoff.
+    let degree = degree_for(theta);
+
+    let identity = SMatrix::<f64, N, N>::identity();
+    let mut phi2 = identity * INVERSE_FACTORIAL[degree + 2];
+    for j in (0..degree).rev() {
+        phi2 = scaled * phi2 + identity * INVERSE_FACTORIAL[j + 2];
+    }
+    let mut phi1 = identity + scaled * phi2;
+    let mut exp = identity + scaled * phi1;
+    for _ in 0..squarings {
+        phi2 = (exp * phi2 + phi1 + phi2) * 0.25;
+        phi1 = (exp * phi1 + phi1) * 0.5;
+        exp = exp * exp;
+    }
+    PhiFunctions { exp, phi1, phi2 }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Matrix1, Matrix2, Matrix3};
+
+    use super::*;
+
+    fn inverse_factorial(k: i32) -> f64 {
+        (1..=k).fold(1.0, |f, i| f / f64::from(i))
+    }
+
+    fn scalar(z: f64) -> (f64, f64, f64) {
+        let p = phi_functions(&Matrix1::new(z));
+        let matrix = (p.exp[0], p.phi1[0], p.phi2[0]);
+        let closed = scalar_phi_functions(z);
+        // Squaring rounds a little more than the closed forms.
+        let close = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-13 * b.abs() || (a.is_nan() && b.is_nan());
+        assert!(
+            close(matrix.0, closed.0) && close(matrix.1, closed.1) && close(matrix.2, closed.2),
+            "{z}: {matrix:?} {closed:?}"
+        );
+        closed
+    }
+
+    #[test]
+    fn scalar_phi_functions_match_their_closed_forms() {
+        for z in [
+            -1e6, -1e3, -40.0, -3.0, -0.7, -0.2, -1e-3, -1e-9, 0.0, 1e-7, 0.3, 2.5,
+        ] {
+            let (e, p1, p2) = scalar(z);
+            // Reference: the series where the closed forms cancel, the closed forms elsewhere.
+            let series = |k: i32| (0..40).map(|j| z.powi(j) * inverse_factorial(j + k)).sum::<f64>();
+            let (e_ref, p1_ref, p2_ref) = if z.abs() < 1.0 {
+                (z.exp(), series(1), series(2))
+            } else {
+                (z.exp(), z.exp_m1() / z, (z.exp_m1() - z) / (z * z))
+            };
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs().max(1e-300);
+            assert!(
+                close(e, e_ref) || (e - e_ref).abs() < 1e-300,
+                "exp({z}) = {e}, want {e_ref}"
+            );
+            assert!(close(p1, p1_ref), "phi1({z}) = {p1}, want {p1_ref}");
+            assert!(close(p2, p2_ref), "phi2({z}) = {p2}, want {p2_ref}");
+        }
+    }
+
+    #[test]
+    fn triangular_matrix_matches_divided_differences() {
+        // For [[a, 0], [c, b]] the lower-left entry of f(X) is c f[a, b].
+        let (a, b, c) = (-0.8, -2.3, 1.7);
+        let p = phi_functions(&Matrix2::new(a, 0.0, c, b));
+        let divided = (b.exp() - a.exp()) / (b - a);
+        assert!((p.exp[(1, 0)] - c * divided).abs() < 1e-15);
+        let phi1 = |z: f64| z.exp_m1() / z;
+        let divided1 = (phi1(b) - phi1(a)) / (b - a);
+        assert!((p.phi1[(1, 0)] - c * divided1).abs() < 1e-15);
+    }
+
+    #[test]
+    fn triangular_closed_form_matches_the_series_with_squaring() {
+        let cases = [
+            (-0.02, -0.01, 0.01),
+            (-0.3, -0.3, 2.0),
+            (-0.4, -0.4 + 1e-9, -3.0),
+            (-0.01, -0.02, 300.0),
+            (0.0, 0.0, 1.0),
+            (-0.7, -0.2, 5.0),
+            (-3.0, -3.0, 0.5),
+            (-40.0, -39.999, 7.0),
+            (-1e4, -0.1, 1.0),
+            (-800.0, 0.0, 1.0),
+            (1.5, -2.0, 1.0),
+        ];
+        for (z1, z2, c) in cases {
+            let closed = lower_triangular_phi_functions(z1, z2, c);
+            let general = phi_functions(&Matrix2::new(z1, 0.0, c, z2));
+            for (a, b) in [
+                (closed.exp, general.exp),
+                (closed.phi1, general.phi1),
+                (closed.phi2, general.phi2),
+            ] {
+                // Squaring a stiff matrix 2^s times costs about 2^s roundings on its slow
+                // mode (15 squarings at -1e4): the closed form is the more exact one.
+                let scale = b.amax().max(1e-300);
+                assert!((a - b).amax() <= 1e-11 * scale, "{z1} {z2} {c}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_undamped_oscillator_rotates_exactly() {
+        // X = [[0, w], [-w, 0]]: e^X is a rotation by w, phi1 = sin(w)/w I + (1 - cos w)/w J.
+        let w: f64 = 37.0;
+        let p = phi_functions(&Matrix2::new(0.0, w, -w, 0.0));
+        assert!((p.exp[(0, 0)] - w.cos()).abs() < 1e-13);
+        assert!((p.exp[(0, 1)] - w.sin()).abs() < 1e-13);
+        assert!((p.phi1[(0, 0)] - w.sin() / w).abs() < 1e-14);
+        assert!((p.phi1[(0, 1)] - (1.0 - w.cos()) / w).abs() < 1e-14);
+    }
+
+    #[test]
+    fn phi_identities_hold_for_a_stiff_matrix() {
+        let x = Matrix3::new(-300.0, 2.0, 0.0, 5.0, -0.01, 1.0, 0.0, -40.0, -7.0);
+        let p = phi_functions(&x);
+        let identity = Matrix3::identity();
+        // e^X = I + X phi1 and phi1 = I + X phi2 (within rounding of the large entries).
+        assert!((p.exp - (identity + x * p.phi1)).amax() < 1e-12);
+        assert!((p.phi1 - (identity + x * p.phi2)).amax() < 1e-12);
+    }
+
+    #[test]
+    fn non_finite_input_gives_nan() {
+        assert!(scalar(f64::NAN).0.is_nan());
+        assert!(scalar(f64::INFINITY).1.is_nan());
+    }
+}
