@@ -555,3 +555,17 @@ impl Instance {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_instance_fits_in_16_kib() {
+        // SPEC 6b: an instance holds at most 16 KiB. The stepper's storage is fixed-size
+        // and lives inside the instance; only the instance name is on the heap besides.
+        let size = std::mem::size_of::<Instance>();
+        assert!(size <= 16 * 1024, "an instance takes {size} bytes");
+        println!("size of an instance: {size} bytes");
+    }
+}

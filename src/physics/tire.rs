@@ -144,7 +144,12 @@ impl Tire {
 
     /// Sets every input at once; callers make sure they are finite.
     pub fn set_inputs(&mut self, inputs: [f64; Input::COUNT]) {
-        if inputs.map(f64::to_bits) != self.inputs.map(f64::to_bits) {
+        // Bitwise, element by element (an array comparison becomes a memcmp call).
+        if inputs
+            .iter()
+            .zip(&self.inputs)
+            .any(|(a, b)| a.to_bits() != b.to_bits())
+        {
             self.inputs = inputs;
             self.outputs = None;
         }

@@ -106,6 +106,7 @@ fn one_norm<const N: usize>(x: &SMatrix<f64, N, N>) -> f64 {
 /// `(e^z, phi1(z), phi2(z))` of a scalar: the same series as [`phi_functions`] where
 /// |z| is small, the closed forms `(e^z - 1)/z` and `(e^z - 1 - z)/z^2` (with `expm1`,
 /// which loses at most two bits there) where it is not.
+#[inline]
 pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
     if z.abs() <= SCALED_NORM {
         let degree = degree_for(z.abs());
@@ -128,6 +129,7 @@ pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
 /// of f. `phi_k[z1, z2]` is the divided difference `exp[z1, z2, 0, ..., 0]` (k zeros),
 /// summed as a series where both points are small and formed recursively otherwise,
 /// dividing only by the larger point, so that equal or nearly equal points lose nothing.
+#[inline]
 pub fn lower_triangular_phi_functions(z1: f64, z2: f64, c: f64) -> PhiFunctions<2> {
     let matrix = |diagonal1: f64, diagonal2: f64, corner: f64| {
         SMatrix::<f64, 2, 2>::new(diagonal1, 0.0, corner, diagonal2)
