@@ -108,6 +108,7 @@ fn every_spec_variable_is_declared_with_its_unit() {
         ("ringDampingY", "N.s/m"),
         ("ringDampingX", "N.s/m"),
         ("sigmaTread", "m"),
+        ("calphaLoadPeak", "1"),
     ];
     for (name, unit) in expected {
         let info = VARIABLES
@@ -198,8 +199,9 @@ fn model_structure_lists_exactly_the_outputs_with_their_feedthrough() {
         vec!["Fy", "vx", "vy", "Fz"],
         vec!["Mz", "vx", "vy", "steerRate", "Fz"],
         vec!["My", "vx", "vsx", "Fz"],
-        vec!["alphaT"],
-        vec!["kappaT"],
+        // The transient slips divide by the loaded relaxation lengths (SPEC 4b).
+        vec!["alphaT", "Fz"],
+        vec!["kappaT", "Fz"],
         vec!["deflX"],
         vec!["deflY"],
         vec!["deflPsi"],

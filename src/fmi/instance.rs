@@ -1,7 +1,7 @@
 //! One FMU instance: the call sequence, variable access and FMU state around a [`Tire`].
 //! Everything here is safe Rust; `exports` turns C pointers into the slices used here.
 
-use crate::physics::{Input, ModelKind, Parameters, Tire};
+use crate::physics::{Input, ModelKind, Parameter, Parameters, Tire};
 
 use super::logger::{Category, Logger};
 use super::snapshot::Snapshot;
@@ -23,6 +23,9 @@ pub struct Instance {
     parameters: Parameters,
     /// Whether `parameters` changed since `tire` was made from them.
     parameters_changed: bool,
+    /// Whether the importer has set Fz. Until it does, Fz follows the nominal load Fz0
+    /// (SPEC 3: Fz starts at Fz0), so that a changed Fz0 is not a changed load.
+    normal_load_set: bool,
     tire: Tire,
     time: f64,
     start_time: f64,
@@ -89,6 +92,7 @@ impl Instance {
             phase: Phase::Instantiated,
             parameters,
             parameters_changed: false,
+            normal_load_set: false,
             tire,
             time: 0.0,
             start_time: 0.0,
@@ -173,6 +177,7 @@ impl Instance {
         self.tire = start_tire(&parameters).map_err(Rejection::error)?;
         self.parameters = parameters;
         self.parameters_changed = false;
+        self.normal_load_set = false;
         self.phase = Phase::Instantiated;
         self.time = 0.0;
         self.start_time = 0.0;
@@ -201,6 +206,9 @@ impl Instance {
             for input in Input::ALL {
                 tire.set_input(input, self.tire.input(input));
                 tire.set_input_rate(input, self.tire.input_rate(input));
+            }
+            if !self.normal_load_set {
+                tire.set_input(Input::Fz, self.parameters.get(Parameter::NominalLoad));
             }
             self.tire = tire;
         }
@@ -290,7 +298,10 @@ impl Instance {
 
     fn apply(&mut self, variable: Variable, value: f64) {
         match variable.role() {
-            Role::Input(input) => self.tire.set_input(input, value),
+            Role::Input(input) => {
+                self.normal_load_set |= input == Input::Fz;
+                self.tire.set_input(input, value);
+            }
             Role::Parameter(p) => {
                 self.parameters.set(p, value).expect("checked by check_settable");
                 self.parameters_changed = true;
@@ -336,7 +347,9 @@ impl Instance {
         if refs.len() != values.len() || !Call::SetValues.allows(self.phase) {
             return false;
         }
+        // Staged in a copy and written at once: one pass, and nothing changes on refusal.
         let mut inputs = self.tire.inputs();
+        let mut sets_load = false;
         for (&vr, &value) in refs.iter().zip(values) {
             let input = match INPUT_BY_VALUE_REFERENCE.get(vr as usize) {
                 Some(&input) if input != NO_SIGNAL => input as usize,
@@ -348,8 +361,10 @@ impl Instance {
                 return false;
             }
             inputs[input] = value;
+            sets_load |= input == Input::Fz as usize;
         }
         self.tire.set_inputs(inputs);
+        self.normal_load_set |= sets_load;
         true
     }
 
@@ -548,6 +563,8 @@ impl Instance {
         self.tire = tire;
         self.parameters = snapshot.parameters.clone();
         self.parameters_changed = true;
+        // The state carries its load explicitly.
+        self.normal_load_set = true;
         self.phase = snapshot.phase;
         self.time = snapshot.time;
         self.start_time = snapshot.start_time;

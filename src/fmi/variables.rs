@@ -110,6 +110,7 @@ impl Variable {
             V::RingDampingY => Role::Parameter(Parameter::RingLateralDamping),
             V::RingDampingX => Role::Parameter(Parameter::RingCircumferentialDamping),
             V::SigmaTread => Role::Parameter(Parameter::TreadRelaxationLength),
+            V::CalphaLoadPeak => Role::Parameter(Parameter::CorneringStiffnessPeakLoad),
         }
     }
 

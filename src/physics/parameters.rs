@@ -48,6 +48,8 @@ pub enum Parameter {
     RingCircumferentialDamping,
     /// Tread relaxation length `sigmaTread` (SecondOrder, RingBody), m.
     TreadRelaxationLength,
+    /// Load ratio `calphaLoadPeak` = c2 at which the cornering stiffness peaks, 1.
+    CorneringStiffnessPeakLoad,
 }
 
 /// What a parameter's value must satisfy on its own.
@@ -59,7 +61,7 @@ enum Bound {
 }
 
 impl Parameter {
-    pub const COUNT: usize = 19;
+    pub const COUNT: usize = 20;
     pub const ALL: [Parameter; Parameter::COUNT] = [
         Parameter::CorneringStiffness,
         Parameter::SlipStiffness,
@@ -80,6 +82,7 @@ impl Parameter {
         Parameter::RingLateralDamping,
         Parameter::RingCircumferentialDamping,
         Parameter::TreadRelaxationLength,
+        Parameter::CorneringStiffnessPeakLoad,
     ];
 
     /// The parameter's public name (SPEC section 3).
@@ -119,6 +122,7 @@ impl Parameter {
             RingLateralDamping => ("ringDampingY", "N.s/m", NonNegative),
             RingCircumferentialDamping => ("ringDampingX", "N.s/m", NonNegative),
             TreadRelaxationLength => ("sigmaTread", "m", Positive),
+            CorneringStiffnessPeakLoad => ("calphaLoadPeak", "1", Positive),
         }
     }
 
@@ -183,7 +187,8 @@ impl Default for Parameters {
     /// C_yaw 40000 N.m/rad. The others are plausible values for a 5 t wheel load on a
     /// large tire: Ckappa 500 kN, sigmaX 0.5 m, Re 0.6 m, trail 5 cm, D_long 9000 N.s/m,
     /// D_yaw 400 N.m.s/rad, contact mass 20 kg, ring 30 kg and 8 kg.m2, carcass and ring
-    /// dampings 9000 N.s/m, tread relaxation length (contact half-length) 0.1 m.
+    /// dampings 9000 N.s/m, tread relaxation length (contact half-length) 0.1 m, and the
+    /// cornering stiffness peaking at twice the nominal load (calphaLoadPeak 2, SPEC 4b).
     fn default() -> Self {
         let mut p = Parameters {
             model: ModelKind::Ddt,
@@ -209,6 +214,7 @@ impl Default for Parameters {
             (Parameter::RingLateralDamping, 9_000.0),
             (Parameter::RingCircumferentialDamping, 9_000.0),
             (Parameter::TreadRelaxationLength, 0.1),
+            (Parameter::CorneringStiffnessPeakLoad, 2.0),
         ] {
             p.values[parameter as usize] = value;
         }

@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+use super::load::LoadLaw;
 use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
 use super::signals::{Input, OutputVector};
@@ -55,8 +56,21 @@ impl fmt::Display for StepError {
 
 impl std::error::Error for StepError {}
 
-/// What the step map of a contact mode was last made for: operating point, step size.
-type StepKey = ([u64; OperatingPoint::COORDINATES], u64);
+/// What the step map of a contact mode was last made for.
+#[derive(Clone, Copy, Debug)]
+struct StepKey {
+    mode: ContactMode,
+    point: OperatingPoint,
+    step_size: f64,
+}
+
+impl StepKey {
+    fn same_as(&self, other: &StepKey) -> bool {
+        self.mode == other.mode
+            && self.point.same_as(&other.point)
+            && self.step_size.to_bits() == other.step_size.to_bits()
+    }
+}
 
 /// A tire with one of the four tire-lag models.
 ///
@@ -67,13 +81,16 @@ type StepKey = ([u64; OperatingPoint::COORDINATES], u64);
 #[derive(Clone, Debug)]
 pub struct Tire {
     parameters: Parameters,
+    load_law: LoadLaw,
+    /// The operating point last made, and the (vx, Fz) bits it was made for.
+    point: ([u64; 2], OperatingPoint),
     rolling: ContactSystem,
     lifted_off: ContactSystem,
     states: StateVector,
     inputs: [f64; Input::COUNT],
     input_rates: [f64; Input::COUNT],
     /// What the step map of the mode last stepped in was made for (`None`: not valid).
-    step_made_for: Option<(ContactMode, StepKey)>,
+    step_made_for: Option<StepKey>,
     outputs: Option<OutputVector>,
 }
 
@@ -82,11 +99,18 @@ impl Tire {
     pub fn new(parameters: Parameters) -> Result<Self, ParameterError> {
         parameters.validate()?;
         let model = parameters.model.equations();
-        let affine = AffineSystem::from_samples(|at| model.system(&parameters, at.vx, at.rho));
+        let affine = AffineSystem::from_samples(|at| model.system(&parameters, &at));
         let lifted_off = ContactSystem::new(affine.lifted_off(LIFT_OFF_RELAXATION_TIME));
         let mut inputs = [0.0; Input::COUNT];
         inputs[Input::Fz as usize] = parameters.get(Parameter::NominalLoad);
+        let load_law = LoadLaw::new(&parameters);
+        let rest = (0.0, 0.0);
         Ok(Self {
+            load_law,
+            point: (
+                [rest.0, rest.1].map(f64::to_bits),
+                OperatingPoint::new(rest.0, load_law.inverse_factors(rest.1)),
+            ),
             parameters,
             rolling: ContactSystem::new(affine),
             lifted_off,
@@ -192,16 +216,34 @@ impl Tire {
         }
     }
 
+    /// The operating point at speed `vx` and normal load `load`, kept while they do not
+    /// change (a load costs a division).
+    fn operating_point(&mut self, vx: f64, load: f64) -> OperatingPoint {
+        let key = [vx.to_bits(), load.to_bits()];
+        if key[0] != self.point.0[0] || key[1] != self.point.0[1] {
+            let point = OperatingPoint::new(vx, self.load_law.inverse_factors(load));
+            self.point = (key, point);
+            // The value in hand, not a reload of what was just stored: reading it back at
+            // once stalls on store forwarding.
+            return point;
+        }
+        self.point.1
+    }
+
     /// The system at the current inputs.
     fn current_system(&mut self) -> &StateSpace {
-        let point = OperatingPoint::rolling(self.input(Input::Vx));
+        let point = self.operating_point(self.input(Input::Vx), self.input(Input::Fz));
         let mode = self.contact_mode();
         self.contact_system(mode).at(point)
     }
 
-    /// The system at speed `vx` in a contact mode (for checks against other integrators).
-    pub fn system_at(&mut self, vx: f64, mode: ContactMode) -> StateSpace {
-        self.contact_system(mode).at(OperatingPoint::rolling(vx)).clone()
+    /// The system at speed `vx` and normal load `load` (for checks against other
+    /// integrators).
+    pub fn system_at(&mut self, vx: f64, load: f64) -> StateSpace {
+        let point = self.operating_point(vx, load);
+        self.contact_system(ContactMode::from_load(load))
+            .at(point)
+            .clone()
     }
 
     /// Outputs for the current states and inputs.
@@ -230,34 +272,49 @@ impl Tire {
     }
 
     /// Partial derivatives of every output with respect to one input, at the current
-    /// states and inputs. Outputs are affine in vx and in rho = |vx| separately, so the
-    /// stepper's slopes give the derivatives exactly; d|vx|/dvx is taken as 0 at vx = 0,
-    /// the value a central difference gives. The normal load only switches the contact
-    /// mode, so its derivative is zero.
+    /// states and inputs. The outputs are affine in the operating point's coordinates, so
+    /// the chain rule through them is exact: d|vx|/dvx is taken as 0 at vx = 0 (the value
+    /// a central difference gives), and the load enters through the length factors (zero
+    /// off the ground, where they are fixed).
     pub fn output_sensitivity(&mut self, input: Input) -> OutputVector {
         if let Some(driving) = input.driving() {
             let feedthrough = self.current_system().d.column(driving as usize);
             return OutputVector::from_iterator(feedthrough.iter().copied());
         }
-        if input == Input::Fz {
-            return OutputVector::zeros();
-        }
-        let vx = self.input(Input::Vx);
+        let (vx, load) = (self.input(Input::Vx), self.input(Input::Fz));
+        let point = self.operating_point(vx, load);
+        let dq = if input == Input::Vx {
+            let rho_per_vx = if vx > 0.0 {
+                1.0
+            } else if vx < 0.0 {
+                -1.0
+            } else {
+                0.0
+            };
+            [
+                1.0,
+                rho_per_vx * point.inverse_lateral_factor,
+                rho_per_vx * point.inverse_longitudinal_factor,
+                0.0,
+                0.0,
+            ]
+        } else {
+            let slopes = self.load_law.inverse_factor_slopes(load);
+            let rho = vx.abs();
+            [
+                0.0,
+                rho * slopes.lateral,
+                rho * slopes.longitudinal,
+                slopes.lateral,
+                slopes.longitudinal,
+            ]
+        };
         let u = Self::driving_inputs(&self.inputs);
         let affine = match self.contact_mode() {
             ContactMode::Rolling => self.rolling.affine(),
             ContactMode::LiftedOff => self.lifted_off.affine(),
         };
-        let by_vx = affine.output_slope(0, &self.states, &u);
-        let by_rho = affine.output_slope(1, &self.states, &u);
-        let rho_per_vx = if vx > 0.0 {
-            1.0
-        } else if vx < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
-        by_vx + by_rho * rho_per_vx
+        affine.output_slope(dq, &self.states, &u)
     }
 
     /// Advances the states by `h` seconds with the inputs held (or ramped at their rates),
@@ -273,10 +330,14 @@ impl Tire {
         } else {
             (self.input(Input::Vx), self.input(Input::Fz))
         };
-        let point = OperatingPoint::rolling(vx);
+        let point = self.operating_point(vx, load);
         let mode = ContactMode::from_load(load);
-        let made_for = Some((mode, (point.key(), h.to_bits())));
-        let fresh = self.step_made_for == made_for;
+        let made_for = StepKey {
+            mode,
+            point,
+            step_size: h,
+        };
+        let fresh = self.step_made_for.is_some_and(|key| key.same_as(&made_for));
         // Invalid until made: a refused step must not leave a half-made map behind.
         self.step_made_for = None;
         let system = match mode {
@@ -305,7 +366,7 @@ impl Tire {
         } else if !zero_if_finite(next_states.as_slice()) {
             return Err(StepError::NotFinite);
         }
-        self.step_made_for = made_for;
+        self.step_made_for = Some(made_for);
         self.states = next_states;
         self.outputs = None;
         Ok(())

@@ -218,5 +218,5 @@ STATE_PARAMS = {
     "trail": 0.04, "Fz0": 42000.0, "dampingY": 6000.0, "dampingX": 7000.0, "sigmaPsi": 0.35,
     "stiffnessPsi": 30000.0, "dampingPsi": 300.0, "contactMass": 15.0,
     "carcassDampingY": 8000.0, "ringMass": 25.0, "ringInertia": 6.0, "ringDampingY": 8500.0,
-    "ringDampingX": 7500.0, "sigmaTread": 0.12,
+    "ringDampingX": 7500.0, "sigmaTread": 0.12, "calphaLoadPeak": 1.7,
 }

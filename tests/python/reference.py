@@ -44,6 +44,7 @@ PARAMETER_VR = {
     "Fz0": 107, "dampingY": 108, "dampingX": 109, "sigmaPsi": 110, "stiffnessPsi": 111,
     "dampingPsi": 112, "contactMass": 113, "carcassDampingY": 114, "ringMass": 115,
     "ringInertia": 116, "ringDampingY": 117, "ringDampingX": 118, "sigmaTread": 119,
+    "calphaLoadPeak": 120,
 }
 DEFAULTS = {
     "Calpha": 350000.0, "Ckappa": 500000.0, "sigmaY": 1.0, "sigmaX": 0.5, "Re": 0.6,
@@ -51,6 +52,7 @@ DEFAULTS = {
     "sigmaPsi": 0.45, "stiffnessPsi": 40000.0, "dampingPsi": 400.0, "contactMass": 20.0,
     "carcassDampingY": 9000.0, "ringMass": 30.0, "ringInertia": 8.0,
     "ringDampingY": 9000.0, "ringDampingX": 9000.0, "sigmaTread": 0.1,
+    "calphaLoadPeak": 2.0,
 }
 STATES = {
     "RLT": ["uY", "uX"],
@@ -85,6 +87,21 @@ def derived(p: dict) -> dict:
         "kT_y": p["Calpha"] / p["sigmaTread"],
         "kT_x": p["Ckappa"] / p["sigmaTread"],
     }
+
+
+def cornering_stiffness_at(p: dict, Fz: float) -> float:
+    """SPEC 4b: Calpha(Fz) = Calpha x (1 + 1/c2^2)/(1 + x^2/c2^2), x = Fz/Fz0."""
+    x, c2 = Fz / p["Fz0"], p["calphaLoadPeak"]
+    return p["Calpha"] * x * (1.0 + 1.0 / c2**2) / (1.0 + x**2 / c2**2)
+
+
+def length_factors(p: dict, Fz) -> tuple:
+    """How the load stretches the relaxation lengths (SPEC 4b): lateral lengths by
+    Calpha(Fz)/Calpha, longitudinal ones by Ckappa(Fz)/Ckappa = Fz/Fz0; nominal (1, 1)
+    when Fz is None or the wheel is off the ground."""
+    if Fz is None or Fz <= 0.0:
+        return 1.0, 1.0
+    return cornering_stiffness_at(p, Fz) / p["Calpha"], Fz / p["Fz0"]
 
 
 # --------------------------------------------------------------------------- state space
@@ -133,10 +150,15 @@ def _add(*rows):
     return c, d
 
 
-def system(model: str, p: dict, vx: float, lifted_off: bool = False):
-    """A, B, C, D of SPEC section 4 (u = [vy, steerRate, vsx], y in OUTPUTS order)."""
+def system(model: str, p: dict, vx: float, lifted_off: bool = False, Fz=None):
+    """A, B, C, D of SPEC section 4 (u = [vy, steerRate, vsx], y in OUTPUTS order) at the
+    normal load Fz (None: nominal). The stiffnesses stay at their Fz0 values; the
+    relaxation lengths stretch with the load (SPEC 4b)."""
     q = derived(p)
     rho = abs(vx)
+    f_lat, f_long = length_factors(p, None if lifted_off else Fz)
+    sigma_y, sigma_x, sigma_psi = p["sigmaY"] * f_lat, p["sigmaX"] * f_long, p["sigmaPsi"] * f_lat
+    tread_y, tread_x = p["sigmaTread"] * f_lat, p["sigmaTread"] * f_long
     b = _Builder(STATES[model])
     zero = b.combo()
 
@@ -144,7 +166,7 @@ def system(model: str, p: dict, vx: float, lifted_off: bool = False):
         # deta/dt = w - vy ; duT/dt = w - (rho/sigmaTread) uT
         # m dw/dt = -kT_y uT - k_y eta - d (w - vy)
         b.ddt("eta", {"w": 1.0}, {"vy": -1.0})
-        b.ddt("uT", {"w": 1.0, "uT": -rho / p["sigmaTread"]})
+        b.ddt("uT", {"w": 1.0, "uT": -rho / tread_y})
         b.ddt("w", {"uT": -q["kT_y"] / mass, "eta": -q["k_y"] / mass, "w": -damping / mass},
               {"vy": damping / mass})
         fy = b.combo({"eta": q["k_y"], "w": damping}, {"vy": -damping})
@@ -152,21 +174,21 @@ def system(model: str, p: dict, vx: float, lifted_off: bool = False):
         return fy, defl_y
 
     def longitudinal_rlt():
-        b.ddt("uX", {"uX": -rho / p["sigmaX"]}, {"vsx": 1.0})
+        b.ddt("uX", {"uX": -rho / sigma_x}, {"vsx": 1.0})
         return b.combo({"uX": -q["C_x"]}), b.combo({"uX": 1.0})
 
     yaw = zero   # DDT's yaw moment, without the trail term
     my = None    # None: My = -Re Fx
     defl_psi = zero
     if model == "RLT":
-        b.ddt("uY", {"uY": -rho / p["sigmaY"]}, {"vy": 1.0})
+        b.ddt("uY", {"uY": -rho / sigma_y}, {"vy": 1.0})
         fy = b.combo({"uY": -q["C_y"]})
         defl_y = b.combo({"uY": 1.0})
         fx, defl_x = longitudinal_rlt()
     elif model == "DDT":
-        b.ddt("uPsi", {"uPsi": -rho / p["sigmaPsi"]}, {"steerRate": 1.0})
-        b.ddt("uY", {"uY": -rho / p["sigmaY"], "uPsi": vx}, {"vy": 1.0})
-        b.ddt("uX", {"uX": -rho / p["sigmaX"]}, {"vsx": 1.0})
+        b.ddt("uPsi", {"uPsi": -rho / sigma_psi}, {"steerRate": 1.0})
+        b.ddt("uY", {"uY": -rho / sigma_y, "uPsi": vx}, {"vy": 1.0})
+        b.ddt("uX", {"uX": -rho / sigma_x}, {"vsx": 1.0})
         fy = _scale(_add(b.combo({"uY": q["C_y"]}), _scale(b.derivative("uY"), p["dampingY"])), -1.0)
         fx = _scale(_add(b.combo({"uX": q["C_x"]}), _scale(b.derivative("uX"), p["dampingX"])), -1.0)
         yaw = _scale(_add(b.combo({"uPsi": p["stiffnessPsi"]}),
@@ -184,7 +206,7 @@ def system(model: str, p: dict, vx: float, lifted_off: bool = False):
         # dxr/dt = wx - vsx ; duTx/dt = wx - (rho/sigmaTread) uTx
         # m_x dwx/dt = -kT_x uTx - k_x xr - ringDampingX (wx - vsx)
         b.ddt("xr", {"wx": 1.0}, {"vsx": -1.0})
-        b.ddt("uTx", {"wx": 1.0, "uTx": -rho / p["sigmaTread"]})
+        b.ddt("uTx", {"wx": 1.0, "uTx": -rho / tread_x})
         b.ddt("wx", {"uTx": -q["kT_x"] / mx, "xr": -q["k_x"] / mx, "wx": -dx / mx},
               {"vsx": dx / mx})
         fx = b.combo({"uTx": -q["kT_x"]})
@@ -198,8 +220,8 @@ def system(model: str, p: dict, vx: float, lifted_off: bool = False):
     mz = _add(yaw, _scale(fy, -p["trail"]))
     rows = {
         "Fx": fx, "Fy": fy, "Mz": mz, "My": my,
-        "alphaT": _scale(defl_y, -1.0 / p["sigmaY"]),
-        "kappaT": _scale(defl_x, -1.0 / p["sigmaX"]),
+        "alphaT": _scale(defl_y, -1.0 / sigma_y),
+        "kappaT": _scale(defl_x, -1.0 / sigma_x),
         "deflX": defl_x, "deflY": defl_y, "deflPsi": defl_psi,
     }
     C = np.array([rows[o][0] for o in OUTPUTS])
@@ -255,16 +277,18 @@ def simulate(model, p, vx, U, h, dU=None, Fz=None, x0=None, return_states=False)
     N = U.shape[0]
     vxs = np.broadcast_to(np.asarray(vx, dtype=float), (N,))
     hs = np.broadcast_to(np.asarray(h, dtype=float), (N,))
-    lifted = np.zeros(N, bool) if Fz is None else (np.broadcast_to(np.asarray(Fz, float), (N,)) <= 0.0)
+    loads = None if Fz is None else np.broadcast_to(np.asarray(Fz, float), (N,))
+    lifted = np.zeros(N, bool) if loads is None else loads <= 0.0
     n = len(STATES[model])
     x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
     Y = np.empty((N, len(OUTPUTS)))
     X = np.empty((N, n))
     cache = {}
     for k in range(N):
-        key = (vxs[k], hs[k], lifted[k], dU is not None)
+        load = None if loads is None else float(loads[k])
+        key = (vxs[k], hs[k], load, dU is not None)
         if key not in cache:
-            A, B, C, D = system(model, p, vxs[k], lifted_off=bool(lifted[k]))
+            A, B, C, D = system(model, p, vxs[k], lifted_off=bool(lifted[k]), Fz=load)
             if dU is None:
                 Phi, G0 = zoh(A, B, hs[k])
                 G1 = None
@@ -396,9 +420,10 @@ class ReferenceTire:
         return np.array([values[k] for k in DRIVING])
 
     def _system(self):
-        key = ("sys", self.inputs["vx"], self.inputs["Fz"] <= 0.0)
+        key = ("sys", self.inputs["vx"], self.inputs["Fz"])
         if key not in self._cache:
-            self._cache[key] = system(self.model, self.params, self.inputs["vx"], lifted_off=key[2])
+            self._cache[key] = system(self.model, self.params, self.inputs["vx"],
+                                      lifted_off=self.inputs["Fz"] <= 0.0, Fz=self.inputs["Fz"])
         return self._cache[key]
 
     def outputs(self):
@@ -412,7 +437,7 @@ class ReferenceTire:
     def step(self, h):
         if any(self.rates[k] != 0.0 for k in ("vx", "Fz")):
             raise NotImplementedError("ramped vx or Fz")
-        key = ("step", self.inputs["vx"], self.inputs["Fz"] <= 0.0, h)
+        key = ("step", self.inputs["vx"], self.inputs["Fz"], h)
         if key not in self._cache:
             A, B, C, D = self._system()
             self._cache[key] = foh(A, B, h)

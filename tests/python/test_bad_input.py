@@ -131,7 +131,7 @@ def test_rejected_multi_value_set_changes_nothing(slaves, log):
 
 # --------------------------------------------------------------------------- unknown references
 
-@pytest.mark.parametrize("vr", [0, 6, 10, 20, 99, 120, 999, 2**31, 2**32 - 1])
+@pytest.mark.parametrize("vr", [0, 6, 10, 20, 99, 121, 999, 2**31, 2**32 - 1])
 def test_unknown_value_reference_is_refused(slaves, log, vr):
     s, twin, t = stepping_pair(slaves, log)
     for call, args in [(s.setReal, ([vr], [1.0])), (s.getReal, ([vr],)),
@@ -168,7 +168,7 @@ OUT_OF_RANGE = [
     ("contactMass", 0.0), ("contactMass", -1.0), ("ringMass", 0.0), ("ringMass", -1.0),
     ("ringInertia", 0.0), ("ringInertia", -1.0),
     ("sigmaPsi", 0.0), ("sigmaTread", 0.0), ("sigmaTread", -0.1), ("Re", 0.0), ("Fz0", 0.0),
-    ("stiffnessPsi", -1.0),
+    ("stiffnessPsi", -1.0), ("calphaLoadPeak", 0.0), ("calphaLoadPeak", -2.0),
     ("sigmaY", math.nan), ("Calpha", math.inf), ("contactMass", -math.inf),
 ]
 

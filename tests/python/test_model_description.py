@@ -16,6 +16,7 @@ PARAMETER_UNITS = {
     "stiffnessPsi": "N.m/rad", "dampingPsi": "N.m.s/rad", "contactMass": "kg",
     "carcassDampingY": "N.s/m", "ringMass": "kg", "ringInertia": "kg.m2",
     "ringDampingY": "N.s/m", "ringDampingX": "N.s/m", "sigmaTread": "m",
+    "calphaLoadPeak": "1",
 }
 
 
@@ -145,7 +146,7 @@ def test_units_are_defined(model_description, variables):
 
 def _true_dependencies():
     """Inputs that each output depends on directly, from the SPEC equations (union over
-    the four models): D != 0, C depends on vx, and the loads on Fz (lift-off)."""
+    the four models): D != 0, C depends on vx, and on Fz (lift-off, loaded lengths)."""
     rng = np.random.default_rng(1)
     deps = {o: set() for o in ref.OUTPUTS}
     p = ref.parameters()
@@ -162,11 +163,12 @@ def _true_dependencies():
                     if D[j, i] != 0.0:
                         deps[o].add(name)
         _, _, Cl, Dl = ref.system(model, p, 2.0, lifted_off=True)
-        y_lifted = Cl @ x + Dl @ u
+        _, _, Ch, Dh = ref.system(model, p, 2.0, Fz=1.5 * p["Fz0"])
+        y_lifted, y_heavy = Cl @ x + Dl @ u, Ch @ x + Dh @ u
         for j, o in enumerate(ref.OUTPUTS):
             if len({round(ys[v][j], 12) for v in ys}) > 1:
                 deps[o].add("vx")
-            if y_lifted[j] != ys[2.0][j]:
+            if y_lifted[j] != ys[2.0][j] or abs(y_heavy[j] - ys[2.0][j]) > 1e-12 * abs(ys[2.0][j]):
                 deps[o].add("Fz")
     return deps
 

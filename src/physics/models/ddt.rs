@@ -9,6 +9,7 @@ use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
+use crate::physics::stepper::OperatingPoint;
 
 pub struct Ddt;
 
@@ -25,7 +26,7 @@ impl TireLagModel for Ddt {
         &["uPsi", "uY", "uX"]
     }
 
-    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> StateSpace {
+    fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(3);
         let yaw_stiffness = p.get(Parameter::YawStiffness);
         let yaw_damping = p.get(Parameter::YawDamping);
@@ -33,12 +34,21 @@ impl TireLagModel for Ddt {
 
         b.rate(
             YAW,
-            &[(YAW, -rho / p.get(Parameter::YawRelaxationLength))],
+            &[(
+                YAW,
+                -at.lateral_relaxation_speed / p.get(Parameter::YawRelaxationLength),
+            )],
             &[(DrivingInput::SteerRate, 1.0)],
         );
         b.rate(
             LATERAL,
-            &[(YAW, vx), (LATERAL, -rho / p.lateral_relaxation_length())],
+            &[
+                (YAW, at.vx),
+                (
+                    LATERAL,
+                    -at.lateral_relaxation_speed / p.lateral_relaxation_length(),
+                ),
+            ],
             &[(DrivingInput::Vy, 1.0)],
         );
         b.output(Output::Fy, &[(LATERAL, -p.lateral_stiffness())], &[]);
@@ -48,9 +58,9 @@ impl TireLagModel for Ddt {
         b.output_rate(Output::Mz, YAW, -yaw_damping);
         b.output(Output::DeflPsi, &[(YAW, 1.0)], &[]);
 
-        longitudinal(p).write(&mut b, rho);
+        longitudinal(p).write(&mut b, at.longitudinal_relaxation_speed);
         write_rolling_moment_from_fx(&mut b, p);
-        write_common_outputs(&mut b, p);
+        write_common_outputs(&mut b, p, at);
         b.finish()
     }
 

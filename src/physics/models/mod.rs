@@ -10,6 +10,7 @@ mod second_order;
 use super::parameters::{Parameter, Parameters};
 use super::signals::{DrivingInput, Output};
 use super::state_space::{StateSpace, StateVector, SystemBuilder};
+use super::stepper::OperatingPoint;
 
 /// Which tire-lag model the tire uses; the values are those of the FMI enumeration
 /// `TireLagModel`.
@@ -54,15 +55,15 @@ impl ModelKind {
 }
 
 /// A tire-lag model: linear in its states and in `u = [vy, steerRate, vsx]`, with
-/// matrices that depend on the speed.
+/// matrices that depend on the speed and the load (the [`OperatingPoint`]).
 pub trait TireLagModel: Sync {
     /// Names of the states, in state-vector order.
     fn state_names(&self) -> &'static [&'static str];
 
-    /// The state-space system at longitudinal speed `vx` and rolling speed `rho`.
-    /// `rho` is `|vx|`; it is passed separately so that the derivative of the system with
-    /// respect to each can be taken exactly (the matrices are affine in both).
-    fn system(&self, p: &Parameters, vx: f64, rho: f64) -> StateSpace;
+    /// The state-space system at an operating point. Relaxation rates are written as
+    /// `at.lateral_relaxation_speed / sigma` (or longitudinal), so that the loaded lengths
+    /// follow; the system must stay affine in the operating point's coordinates.
+    fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace;
 
     /// Mechanical energy stored in the tire (springs and moving masses), J.
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64;
@@ -70,6 +71,8 @@ pub trait TireLagModel: Sync {
 
 /// First-order relaxation of a deflection `u` driven by a slip velocity:
 /// `du/dt = v - (rho/sigma) u`, force `-(stiffness u + damping du/dt)` into `force`.
+/// `rho/sigma` is written as `relaxation_speed / relaxation_length`, the speed being the
+/// operating point's lateral or longitudinal one (SPEC 4b: loaded lengths).
 struct Relaxation {
     state: usize,
     input: DrivingInput,
@@ -81,9 +84,13 @@ struct Relaxation {
 }
 
 impl Relaxation {
-    fn write(&self, b: &mut SystemBuilder, rho: f64) {
+    fn write(&self, b: &mut SystemBuilder, relaxation_speed: f64) {
         let u = self.state;
-        b.rate(u, &[(u, -rho / self.relaxation_length)], &[(self.input, 1.0)]);
+        b.rate(
+            u,
+            &[(u, -relaxation_speed / self.relaxation_length)],
+            &[(self.input, 1.0)],
+        );
         b.output(self.force, &[(u, -self.stiffness)], &[]);
         b.output_rate(self.force, u, -self.damping);
         b.output(self.deflection, &[(u, 1.0)], &[]);
@@ -126,13 +133,16 @@ struct ContactMass {
 }
 
 impl ContactMass {
-    fn write(&self, b: &mut SystemBuilder, rho: f64) {
+    fn write(&self, b: &mut SystemBuilder, relaxation_speed: f64) {
         let (offset, tread, w, v) = (self.offset, self.tread, self.velocity, self.input);
         let m = self.mass;
         b.rate(offset, &[(w, 1.0)], &[(v, -1.0)]);
         b.rate(
             tread,
-            &[(w, 1.0), (tread, -rho / self.tread_relaxation_length)],
+            &[
+                (w, 1.0),
+                (tread, -relaxation_speed / self.tread_relaxation_length),
+            ],
             &[],
         );
         b.rate(
@@ -185,18 +195,19 @@ impl ContactMass {
     }
 }
 
-/// Rows every model shares: the pneumatic trail in Mz and the transient slips.
-fn write_common_outputs(b: &mut SystemBuilder, p: &Parameters) {
+/// Rows every model shares: the pneumatic trail in Mz and the transient slips, which use
+/// the loaded relaxation lengths.
+fn write_common_outputs(b: &mut SystemBuilder, p: &Parameters, at: &OperatingPoint) {
     b.output_from(Output::Mz, Output::Fy, -p.get(Parameter::PneumaticTrail));
     b.output_from(
         Output::AlphaT,
         Output::DeflY,
-        -1.0 / p.lateral_relaxation_length(),
+        -at.inverse_lateral_factor / p.lateral_relaxation_length(),
     );
     b.output_from(
         Output::KappaT,
         Output::DeflX,
-        -1.0 / p.longitudinal_relaxation_length(),
+        -at.inverse_longitudinal_factor / p.longitudinal_relaxation_length(),
     );
 }
 

@@ -9,6 +9,7 @@ use super::{ContactMass, TireLagModel, write_common_outputs};
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
+use crate::physics::stepper::OperatingPoint;
 
 pub struct RingBody;
 
@@ -44,20 +45,20 @@ impl TireLagModel for RingBody {
         &["eta", "uT", "w", "xr", "uTx", "wx"]
     }
 
-    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> StateSpace {
+    fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(6);
         let contact = lateral(p);
-        contact.write(&mut b, rho);
+        contact.write(&mut b, at.lateral_relaxation_speed);
         contact.carcass_force(&mut b, Output::Fy, 1.0);
         contact.deflection(&mut b, Output::DeflY);
 
         let ring = circumferential(p);
-        ring.write(&mut b, rho);
+        ring.write(&mut b, at.longitudinal_relaxation_speed);
         b.output(Output::Fx, &[(ring.tread, -ring.tread_stiffness)], &[]);
         ring.carcass_force(&mut b, Output::My, -p.get(Parameter::RollingRadius));
         ring.deflection(&mut b, Output::DeflX);
 
-        write_common_outputs(&mut b, p);
+        write_common_outputs(&mut b, p, at);
         b.finish()
     }
 

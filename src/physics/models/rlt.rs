@@ -7,6 +7,7 @@ use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment
 use crate::physics::parameters::Parameters;
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
+use crate::physics::stepper::OperatingPoint;
 
 pub struct Rlt;
 
@@ -30,12 +31,12 @@ impl TireLagModel for Rlt {
         &["uY", "uX"]
     }
 
-    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> StateSpace {
+    fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(2);
-        lateral(p).write(&mut b, rho);
-        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, rho);
+        lateral(p).write(&mut b, at.lateral_relaxation_speed);
+        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, at.longitudinal_relaxation_speed);
         write_rolling_moment_from_fx(&mut b, p);
-        write_common_outputs(&mut b, p);
+        write_common_outputs(&mut b, p, at);
         b.finish()
     }
 

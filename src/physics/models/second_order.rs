@@ -9,6 +9,7 @@ use super::{ContactMass, Relaxation, TireLagModel, write_common_outputs, write_r
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::Output;
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
+use crate::physics::stepper::OperatingPoint;
 
 pub struct SecondOrder;
 
@@ -29,15 +30,15 @@ impl TireLagModel for SecondOrder {
         &["eta", "uT", "w", "uX"]
     }
 
-    fn system(&self, p: &Parameters, _vx: f64, rho: f64) -> StateSpace {
+    fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(4);
         let contact = lateral(p);
-        contact.write(&mut b, rho);
+        contact.write(&mut b, at.lateral_relaxation_speed);
         contact.carcass_force(&mut b, Output::Fy, 1.0);
         contact.deflection(&mut b, Output::DeflY);
-        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, rho);
+        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, at.longitudinal_relaxation_speed);
         write_rolling_moment_from_fx(&mut b, p);
-        write_common_outputs(&mut b, p);
+        write_common_outputs(&mut b, p, at);
         b.finish()
     }
 

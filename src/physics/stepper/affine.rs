@@ -1,40 +1,82 @@
 //! A model's system as an affine function of its operating point, so that a new speed
 //! costs a few multiply-adds instead of writing the equations again.
 
+use crate::physics::load::InverseLengthFactors;
 use crate::physics::signals::Output;
 use crate::physics::state_space::{MAX_STATES, StateSpace};
 
-/// Where the tire operates: the quantities its system matrices depend on. Every model's
-/// matrices are affine in `vx` and in `rho = |vx|` separately (no product of the two, no
-/// division by either).
+/// Where the tire operates: the quantities its system matrices depend on (SPEC 4, 4b).
+///
+/// Speed and load enter every model the same way: the relaxation lengths scale with the
+/// load, lateral ones by `Calpha(Fz)/Calpha`, longitudinal ones by `Fz/Fz0` (the
+/// stiffnesses stay), so a relaxation rate `rho/(sigma factor)` is a nominal length
+/// divided into `rho/factor`. With these five coordinates every model's matrices are
+/// affine (no product of two, no division by any).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OperatingPoint {
-    /// Longitudinal speed, m/s.
+    /// Longitudinal speed `vx`, m/s.
     pub vx: f64,
-    /// Rolling speed, m/s; `|vx|` for a real operating point.
-    pub rho: f64,
+    /// `rho / lateral length factor`, m/s: divided by a nominal lateral relaxation length
+    /// it is that lag's rate.
+    pub lateral_relaxation_speed: f64,
+    /// `rho / longitudinal length factor`, m/s.
+    pub longitudinal_relaxation_speed: f64,
+    /// `1 / lateral length factor`: turns a nominal lateral length into the loaded one's
+    /// inverse (for alphaT).
+    pub inverse_lateral_factor: f64,
+    /// `1 / longitudinal length factor` (for kappaT).
+    pub inverse_longitudinal_factor: f64,
 }
 
 impl OperatingPoint {
-    pub const COORDINATES: usize = 2;
+    pub const COORDINATES: usize = 5;
+    /// Index of `vx` among the coordinates.
+    pub const VX: usize = 0;
 
-    pub fn rolling(vx: f64) -> Self {
-        Self { vx, rho: vx.abs() }
+    /// The operating point at speed `vx` with the relaxation lengths stretched by the load
+    /// (`inverse` = 1 / length factors).
+    pub fn new(vx: f64, inverse: InverseLengthFactors) -> Self {
+        let rho = vx.abs();
+        Self {
+            vx,
+            lateral_relaxation_speed: rho * inverse.lateral,
+            longitudinal_relaxation_speed: rho * inverse.longitudinal,
+            inverse_lateral_factor: inverse.lateral,
+            inverse_longitudinal_factor: inverse.longitudinal,
+        }
     }
 
     pub const fn coordinates(&self) -> [f64; Self::COORDINATES] {
-        [self.vx, self.rho]
+        [
+            self.vx,
+            self.lateral_relaxation_speed,
+            self.longitudinal_relaxation_speed,
+            self.inverse_lateral_factor,
+            self.inverse_longitudinal_factor,
+        ]
+    }
+
+    pub const fn from_coordinates(c: [f64; Self::COORDINATES]) -> Self {
+        Self {
+            vx: c[0],
+            lateral_relaxation_speed: c[1],
+            longitudinal_relaxation_speed: c[2],
+            inverse_lateral_factor: c[3],
+            inverse_longitudinal_factor: c[4],
+        }
     }
 
     fn unit(coordinate: usize) -> Self {
         let mut c = [0.0; Self::COORDINATES];
         c[coordinate] = 1.0;
-        Self { vx: c[0], rho: c[1] }
+        Self::from_coordinates(c)
     }
 
-    /// Bit pattern, for caches keyed on the exact operating point.
-    pub fn key(&self) -> [u64; Self::COORDINATES] {
-        self.coordinates().map(f64::to_bits)
+    /// Whether both are the same point to the bit, for caches. (Compared coordinate by
+    /// coordinate: an array comparison would become a memcmp call on the hot path.)
+    pub fn same_as(&self, other: &OperatingPoint) -> bool {
+        let (a, b) = (self.coordinates(), other.coordinates());
+        (0..Self::COORDINATES).all(|k| a[k].to_bits() == b[k].to_bits())
     }
 }
 
@@ -47,29 +89,31 @@ enum Matrix {
     D,
 }
 
-/// One matrix entry that changes with the operating point:
-/// `value = at_rest + sum(slope[k] * coordinate[k])`.
+/// One term of a matrix entry that changes with the operating point. The first term of
+/// an entry sets it, `at_rest + slope * coordinate`; any further terms of the same entry
+/// follow it and add `slope * coordinate`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct VaryingEntry {
+struct VaryingTerm {
     matrix: Matrix,
-    row: u8,
-    column: u8,
     /// Column-major position in its matrix.
     index: u16,
+    coordinate: u8,
+    first: bool,
     at_rest: f64,
-    slope: [f64; OperatingPoint::COORDINATES],
+    slope: f64,
 }
 
-/// Room for the varying entries of any model: the relaxation rates on A's diagonal, the
-/// couplings, and the damper-force rows of C and D that copy them.
+/// Room for the varying terms of any model: the relaxation rates on A's diagonal, the
+/// couplings, the damper rows of C that copy them, and the transient slips' rows.
 const MAX_VARYING: usize = 64;
 
-/// `S(q) = S(0) + sum(q_k dS/dq_k)`, with only the entries that vary stored.
+/// `S(q) = S(0) + sum(q_k dS/dq_k)`, with only the terms that vary stored.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AffineSystem {
     at_rest: StateSpace,
-    /// Ordered by matrix (A, B, C, D); `matrix_ends[m]` is one past the last entry of m.
-    varying: [VaryingEntry; MAX_VARYING],
+    /// Ordered by matrix (A, B, C, D), then entry; `matrix_ends[m]` is one past the last
+    /// term of matrix m.
+    varying: [VaryingTerm; MAX_VARYING],
     varying_count: usize,
     matrix_ends: [usize; 4],
 }
@@ -93,14 +137,13 @@ fn column_major_index(s: &StateSpace, matrix: Matrix, row: usize, column: usize)
     column * rows + row
 }
 
-/// Writes `value = at_rest + slope . q` for each entry into one matrix's storage.
-fn write_entries(storage: &mut [f64], entries: &[VaryingEntry], q: [f64; OperatingPoint::COORDINATES]) {
-    for entry in entries {
-        let mut value = entry.at_rest;
-        for (slope, coordinate) in entry.slope.iter().zip(q) {
-            value += slope * coordinate;
-        }
-        storage[entry.index as usize] = value;
+/// Writes each term into one matrix's storage.
+#[inline]
+fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], q: &[f64; OperatingPoint::COORDINATES]) {
+    for term in terms {
+        let index = term.index as usize;
+        let base = if term.first { term.at_rest } else { storage[index] };
+        storage[index] = base + term.slope * q[term.coordinate as usize];
     }
 }
 
@@ -108,16 +151,18 @@ impl AffineSystem {
     /// Samples `system` at rest and at a unit step of each coordinate. The models' systems
     /// are affine in the operating point, so these samples give it everywhere.
     pub fn from_samples(system: impl Fn(OperatingPoint) -> StateSpace) -> Self {
-        let at_rest = system(OperatingPoint { vx: 0.0, rho: 0.0 });
+        let at_rest = system(OperatingPoint::from_coordinates(
+            [0.0; OperatingPoint::COORDINATES],
+        ));
         let units: [StateSpace; OperatingPoint::COORDINATES] =
             std::array::from_fn(|k| system(OperatingPoint::unit(k)));
-        let placeholder = VaryingEntry {
+        let placeholder = VaryingTerm {
             matrix: Matrix::A,
-            row: 0,
-            column: 0,
             index: 0,
+            coordinate: 0,
+            first: true,
             at_rest: 0.0,
-            slope: [0.0; OperatingPoint::COORDINATES],
+            slope: 0.0,
         };
         let mut affine = AffineSystem {
             at_rest: at_rest.clone(),
@@ -127,23 +172,25 @@ impl AffineSystem {
         };
         let mut unit_entries = units.each_ref().map(entries);
         for (matrix, row, column, value) in entries(&at_rest) {
-            let slope = unit_entries
+            let slopes = unit_entries
                 .each_mut()
                 .map(|unit| unit.next().expect("same shape").3 - value);
-            if slope.iter().any(|&s| s != 0.0) {
+            let mut first = true;
+            for (coordinate, &slope) in slopes.iter().enumerate().filter(|(_, s)| **s != 0.0) {
                 assert!(
                     affine.varying_count < MAX_VARYING,
-                    "more than {MAX_VARYING} varying entries"
+                    "more than {MAX_VARYING} varying terms"
                 );
-                affine.varying[affine.varying_count] = VaryingEntry {
+                affine.varying[affine.varying_count] = VaryingTerm {
                     matrix,
-                    row: row as u8,
-                    column: column as u8,
                     index: column_major_index(&at_rest, matrix, row, column) as u16,
+                    coordinate: coordinate as u8,
+                    first,
                     at_rest: value,
                     slope,
                 };
                 affine.varying_count += 1;
+                first = false;
             }
         }
         affine.index_by_matrix();
@@ -164,12 +211,13 @@ impl AffineSystem {
         for load in Output::LOADS {
             s.c.row_mut(load as usize).fill(0.0);
         }
-        let is_load_row = |row: u8| Output::LOADS.iter().any(|&l| l as u8 == row);
+        let rows = self.at_rest.c.nrows();
+        let is_load_row = |index: u16| Output::LOADS.iter().any(|&l| l as usize == index as usize % rows);
         let mut kept = 0;
         for k in 0..lifted.varying_count {
-            let entry = lifted.varying[k];
-            if entry.matrix == Matrix::C && !is_load_row(entry.row) {
-                lifted.varying[kept] = entry;
+            let term = lifted.varying[k];
+            if term.matrix == Matrix::C && !is_load_row(term.index) {
+                lifted.varying[kept] = term;
                 kept += 1;
             }
         }
@@ -181,7 +229,8 @@ impl AffineSystem {
     /// Orders the entries by matrix and records where each matrix's run ends.
     fn index_by_matrix(&mut self) {
         let count = self.varying_count;
-        self.varying[..count].sort_by_key(|e| e.matrix);
+        // Stable: the terms of one entry keep their order, the setting one first.
+        self.varying[..count].sort_by_key(|t| (t.matrix, t.index));
         for (m, matrix) in [Matrix::A, Matrix::B, Matrix::C, Matrix::D]
             .into_iter()
             .enumerate()
@@ -202,7 +251,7 @@ impl AffineSystem {
         &self.at_rest
     }
 
-    fn varying(&self) -> &[VaryingEntry] {
+    fn varying(&self) -> &[VaryingTerm] {
         &self.varying[..self.varying_count]
     }
 
@@ -212,43 +261,63 @@ impl AffineSystem {
     pub fn evaluate(&self, point: OperatingPoint, system: &mut StateSpace) {
         let q = point.coordinates();
         let [a, b, c, d] = self.matrix_ends;
-        write_entries(system.a.as_mut_slice(), &self.varying[..a], q);
-        write_entries(system.b.as_mut_slice(), &self.varying[a..b], q);
-        write_entries(system.c.as_mut_slice(), &self.varying[b..c], q);
-        write_entries(system.d.as_mut_slice(), &self.varying[c..d], q);
+        write_terms(system.a.as_mut_slice(), &self.varying[..a], &q);
+        write_terms(system.b.as_mut_slice(), &self.varying[a..b], &q);
+        write_terms(system.c.as_mut_slice(), &self.varying[b..c], &q);
+        write_terms(system.d.as_mut_slice(), &self.varying[c..d], &q);
     }
 
-    /// Typical magnitude of each state-matrix entry (at rest plus 10 m/s of each
-    /// coordinate), zero where the entry is zero everywhere: the coupling pattern.
+    /// Typical magnitude of each state-matrix entry (at rest plus 10 of each coordinate),
+    /// zero where the entry is zero everywhere: the coupling pattern.
     pub fn state_coupling(&self) -> [[f64; MAX_STATES]; MAX_STATES] {
-        const TYPICAL_SPEED: f64 = 10.0;
+        const TYPICAL: f64 = 10.0;
+        let n = self.states();
         let mut magnitude = [[0.0; MAX_STATES]; MAX_STATES];
-        for (i, row) in magnitude.iter_mut().enumerate().take(self.states()) {
-            for (j, value) in row.iter_mut().enumerate().take(self.states()) {
+        for (i, row) in magnitude.iter_mut().enumerate().take(n) {
+            for (j, value) in row.iter_mut().enumerate().take(n) {
                 *value = self.at_rest.a[(i, j)].abs();
             }
         }
-        for entry in self.varying().iter().filter(|e| e.matrix == Matrix::A) {
-            let slopes: f64 = entry.slope.iter().map(|s| s.abs()).sum();
-            magnitude[entry.row as usize][entry.column as usize] += TYPICAL_SPEED * slopes;
+        let rows = self.at_rest.a.nrows();
+        for term in self.varying().iter().filter(|t| t.matrix == Matrix::A) {
+            let (row, column) = (term.index as usize % rows, term.index as usize / rows);
+            magnitude[row][column] += TYPICAL * term.slope.abs();
         }
         magnitude
     }
 
-    /// `d(C x + D u)/d coordinate`: how the outputs change with one coordinate of the
-    /// operating point at fixed states and inputs. Exact: the outputs are affine in it.
+    /// Where the input matrix is nonzero at some operating point.
+    pub fn input_coupling(&self) -> [[bool; crate::physics::signals::DrivingInput::COUNT]; MAX_STATES] {
+        let mut driven = [[false; crate::physics::signals::DrivingInput::COUNT]; MAX_STATES];
+        for (i, row) in driven.iter_mut().enumerate().take(self.states()) {
+            for (k, value) in row.iter_mut().enumerate() {
+                *value = self.at_rest.b[(i, k)] != 0.0;
+            }
+        }
+        let rows = self.at_rest.b.nrows();
+        for term in self.varying().iter().filter(|t| t.matrix == Matrix::B) {
+            driven[term.index as usize % rows][term.index as usize / rows] = true;
+        }
+        driven
+    }
+
+    /// `d(C x + D u)/d q`: how the outputs change with the coordinates of the operating
+    /// point at fixed states and inputs, for a change `dq` of them. Exact: the outputs are
+    /// affine in the coordinates.
     pub fn output_slope(
         &self,
-        coordinate: usize,
+        dq: [f64; OperatingPoint::COORDINATES],
         x: &crate::physics::state_space::StateVector,
         u: &crate::physics::state_space::DrivingVector,
     ) -> crate::physics::signals::OutputVector {
         let mut slope = crate::physics::signals::OutputVector::zeros();
-        for entry in self.varying() {
-            let (row, column) = (entry.row as usize, entry.column as usize);
-            match entry.matrix {
-                Matrix::C => slope[row] += entry.slope[coordinate] * x[column],
-                Matrix::D => slope[row] += entry.slope[coordinate] * u[column],
+        let (c_rows, d_rows) = (self.at_rest.c.nrows(), self.at_rest.d.nrows());
+        for term in self.varying() {
+            let change = term.slope * dq[term.coordinate as usize];
+            let index = term.index as usize;
+            match term.matrix {
+                Matrix::C => slope[index % c_rows] += change * x[index / c_rows],
+                Matrix::D => slope[index % d_rows] += change * u[index / d_rows],
                 Matrix::A | Matrix::B => {}
             }
         }

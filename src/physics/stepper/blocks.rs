@@ -2,6 +2,7 @@
 //! other (and on the inputs). Each block is discretised on its own, which keeps every
 //! matrix exponential 1x1, 2x2 or 3x3 for the models here.
 
+use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::MAX_STATES;
 
 /// One block: its states, and the power-of-two scaling that balances its matrix.
@@ -14,11 +15,18 @@ pub struct Block {
     pub scale: [f64; MAX_STATES],
     /// `1/scale` (exact: powers of two).
     pub inverse_scale: [f64; MAX_STATES],
+    /// Which driving inputs enter the block's rates.
+    pub driven_by: [bool; DrivingInput::COUNT],
 }
 
 impl Block {
     pub fn states(&self) -> &[usize] {
         &self.states[..self.size]
+    }
+
+    /// The driving inputs (as columns of B) that enter the block's rates.
+    pub fn inputs(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..DrivingInput::COUNT).filter(|&k| self.driven_by[k])
     }
 }
 
@@ -31,8 +39,13 @@ pub struct Blocks {
 
 impl Blocks {
     /// The blocks of a system of `states` states whose state matrix has an entry of
-    /// typical magnitude `magnitude[i][j]` (zero where it is zero at every operating point).
-    pub fn new(states: usize, magnitude: &[[f64; MAX_STATES]; MAX_STATES]) -> Self {
+    /// typical magnitude `magnitude[i][j]` (zero where it is zero at every operating point)
+    /// and whose input matrix has a nonzero entry where `driven[i][k]`.
+    pub fn new(
+        states: usize,
+        magnitude: &[[f64; MAX_STATES]; MAX_STATES],
+        driven: &[[bool; DrivingInput::COUNT]; MAX_STATES],
+    ) -> Self {
         // Connected components of the coupling graph (either direction couples).
         let mut component: [usize; MAX_STATES] = std::array::from_fn(|i| i);
         for _ in 0..states {
@@ -51,6 +64,7 @@ impl Blocks {
             states: [0; MAX_STATES],
             scale: [1.0; MAX_STATES],
             inverse_scale: [1.0; MAX_STATES],
+            driven_by: [false; DrivingInput::COUNT],
         };
         let mut blocks = Blocks {
             count: 0,
@@ -61,6 +75,9 @@ impl Blocks {
             for state in (0..states).filter(|&s| component[s] == root) {
                 block.states[block.size] = state;
                 block.size += 1;
+                for (k, driven_by) in block.driven_by.iter_mut().enumerate() {
+                    *driven_by |= driven[state][k];
+                }
             }
             if block.size > 0 {
                 balance(&mut block, magnitude);
@@ -124,7 +141,7 @@ mod tests {
     fn blocks_are_the_coupled_groups_of_states() {
         // 0 <- 2 coupled, 1 alone, 3 <-> 4.
         let m = pattern(&[(0, 0, 1.0), (2, 0, 3.0), (1, 1, 1.0), (3, 4, 1.0), (4, 3, 1.0)]);
-        let blocks = Blocks::new(5, &m);
+        let blocks = Blocks::new(5, &m, &[[true; DrivingInput::COUNT]; MAX_STATES]);
         let groups: Vec<Vec<usize>> = blocks.iter().map(|b| b.states().to_vec()).collect();
         assert_eq!(groups, vec![vec![0, 2], vec![1], vec![3, 4]]);
     }
@@ -133,7 +150,10 @@ mod tests {
     fn balancing_evens_out_a_stiff_mass() {
         // eta' = w, w' = -1e5 eta: balanced, both off-diagonal entries are about 316.
         let m = pattern(&[(0, 1, 1.0), (1, 0, 1e5)]);
-        let block = *Blocks::new(2, &m).iter().next().unwrap();
+        let block = *Blocks::new(2, &m, &[[true; DrivingInput::COUNT]; MAX_STATES])
+            .iter()
+            .next()
+            .unwrap();
         let upper = m[0][1] * block.scale[1] / block.scale[0];
         let lower = m[1][0] * block.scale[0] / block.scale[1];
         assert!(upper / lower < 4.0 && lower / upper < 4.0, "{upper} {lower}");

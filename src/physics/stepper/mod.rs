@@ -106,7 +106,7 @@ impl StepMap {
             let state = states[0];
             let (exp, phi1, phi2) = phi::scalar_phi_functions(h * system.a[(state, state)]);
             self.transition[(state, state)] = exp;
-            for k in 0..DrivingInput::COUNT {
+            for k in block.inputs() {
                 let b = system.b[(state, k)];
                 self.hold[(state, k)] = h * phi1 * b;
                 self.ramp[(state, k)] = h * h * phi2 * b;
@@ -122,15 +122,18 @@ impl StepMap {
             [z1, 0.0, c, z2] => resize(phi::lower_triangular_phi_functions(z1, z2, c).transposed()),
             _ => balanced_phi_functions(&x, block),
         };
-        let hold = phi.phi1 * inputs * h;
-        let ramp = phi.phi2 * inputs * (h * h);
         for (i, &row) in states.iter().enumerate() {
             for (j, &column) in states.iter().enumerate() {
                 self.transition[(row, column)] = phi.exp[(i, j)];
             }
-            for k in 0..DrivingInput::COUNT {
-                self.hold[(row, k)] = hold[(i, k)];
-                self.ramp[(row, k)] = ramp[(i, k)];
+        }
+        // Only the inputs that drive the block; the other columns stay zero.
+        for k in block.inputs() {
+            let hold = phi.phi1 * inputs.column(k) * h;
+            let ramp = phi.phi2 * inputs.column(k) * (h * h);
+            for (i, &row) in states.iter().enumerate() {
+                self.hold[(row, k)] = hold[i];
+                self.ramp[(row, k)] = ramp[i];
             }
         }
     }
@@ -168,16 +171,20 @@ pub struct ContactSystem {
     affine: AffineSystem,
     blocks: Blocks,
     current: StateSpace,
-    current_point: [u64; OperatingPoint::COORDINATES],
+    current_point: OperatingPoint,
     /// Made for these blocks only, so the entries between blocks stay zero.
     map: StepMap,
 }
 
 impl ContactSystem {
     pub fn new(affine: AffineSystem) -> Self {
-        let blocks = Blocks::new(affine.states(), &affine.state_coupling());
+        let blocks = Blocks::new(
+            affine.states(),
+            &affine.state_coupling(),
+            &affine.input_coupling(),
+        );
         let current = affine.at_rest().clone();
-        let current_point = OperatingPoint { vx: 0.0, rho: 0.0 }.key();
+        let current_point = OperatingPoint::from_coordinates([0.0; OperatingPoint::COORDINATES]);
         let map = StepMap::new(&current, &blocks, 0.0);
         Self {
             affine,
@@ -199,9 +206,9 @@ impl ContactSystem {
     /// The system at `point`; only its varying entries are rewritten, and only when the
     /// point changed.
     pub fn at(&mut self, point: OperatingPoint) -> &StateSpace {
-        if point.key() != self.current_point {
+        if !point.same_as(&self.current_point) {
             self.affine.evaluate(point, &mut self.current);
-            self.current_point = point.key();
+            self.current_point = point;
         }
         &self.current
     }
