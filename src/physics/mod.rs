@@ -10,6 +10,7 @@
 //! steps it exactly, block by block, for inputs held or ramped over a step; the [`Tire`]
 //! holds the states and inputs.
 
+pub mod brush;
 pub mod load;
 pub mod models;
 pub mod parameters;
