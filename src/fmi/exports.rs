@@ -3,6 +3,10 @@
 //! time against its typedef in the official headers (`fmi2...TYPE`).
 
 #![allow(non_snake_case, non_upper_case_globals)]
+// These are the C ABI: the FMI standard makes the importer promise valid pointers, and every
+// one is checked for NULL before use. They are public so that Rust can call them in-process
+// too (tests/no_allocation.rs), with the same promise.
+#![allow(clippy::not_unsafe_ptr_arg_deref)]
 
 use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};

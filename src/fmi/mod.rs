@@ -2,7 +2,8 @@
 //! references, logging and FMU state. It knows the tire only through
 //! [`crate::physics::Tire`].
 
-mod exports;
+/// The exported FMI 2.0 functions (the C ABI).
+pub mod exports;
 pub mod instance;
 pub mod logger;
 pub mod snapshot;

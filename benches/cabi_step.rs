@@ -1,0 +1,94 @@
+//! The cost of a full co-simulation step through the C ABI, as a native importer drives
+//! the packed binary (SPEC 6b): `cargo bench --bench cabi_step` after `./scripts/build-fmu`.
+//!
+//! Per step: fmi2SetReal of the 5 inputs, fmi2DoStep of 1 ms, fmi2GetReal of the 9
+//! outputs, on `target/fmu/TireLag.so` (or `TIRELAG_SO`) loaded with libloading. Two cases:
+//! "varying", vx = 10 + 0.001 (k mod 1000) and Fz = 50000 (1 + 0.02 sin 2t) changing every
+//! step as in a vehicle model, and "constant", vx = 10 and Fz = 50000; vy = 0.1 sin t,
+//! steerRate = 0.05 cos t, vsx = 0.01 sin t throughout (the inputs of the shared yardstick).
+//! The inputs are tabulated before timing. Median over timed passes after a warm-up.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+#[path = "../tests/support/mod.rs"]
+mod support;
+
+use support::{OK, Slave, vr};
+
+const STEP: f64 = 1e-3;
+const INPUTS: [u32; 5] = [vr::VX, vr::VY, vr::STEER_RATE, vr::VSX, vr::FZ];
+
+fn input_table(varying: bool, steps: usize) -> Vec<[f64; 5]> {
+    (0..steps)
+        .map(|k| {
+            let t = k as f64 * STEP;
+            let (vx, fz) = if varying {
+                (
+                    10.0 + 1e-3 * (k % 1000) as f64,
+                    50_000.0 * (1.0 + 0.02 * (2.0 * t).sin()),
+                )
+            } else {
+                (10.0, 50_000.0)
+            };
+            [vx, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), fz]
+        })
+        .collect()
+}
+
+/// Nanoseconds per full step, one pass over `table` on one instance.
+fn pass(slave: &mut Slave, table: &[[f64; 5]], outputs: &mut [f64; 9]) -> f64 {
+    let fmu = slave.fmu;
+    let start = Instant::now();
+    for inputs in table {
+        // SAFETY: the arrays hold exactly the counts passed; the instance is live.
+        unsafe {
+            assert_eq!(fmu.fmi2SetReal(slave.c, INPUTS.as_ptr(), 5, inputs.as_ptr()), OK);
+            assert_eq!(fmu.fmi2DoStep(slave.c, slave.time, STEP, 1), OK);
+            assert_eq!(
+                fmu.fmi2GetReal(slave.c, vr::OUTPUTS.as_ptr(), 9, outputs.as_mut_ptr()),
+                OK
+            );
+        }
+        slave.time += STEP;
+        black_box(&outputs);
+    }
+    start.elapsed().as_nanos() as f64 / table.len() as f64
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+fn main() {
+    // `cargo test --benches` runs this without --bench: a short smoke pass then.
+    let (steps, passes) = if std::env::args().any(|a| a == "--bench") {
+        (20_000, 15)
+    } else {
+        (200, 1)
+    };
+    let fmu = support::load();
+    let tables = [input_table(true, steps), input_table(false, steps)];
+    println!(
+        "{:<12} {:>24} {:>24}",
+        "ns per step", "vx, Fz varying (min-max)", "constant (min-max)"
+    );
+    for (model, name) in [(1, "RLT"), (2, "DDT"), (3, "SecondOrder"), (4, "RingBody")] {
+        let mut cells = Vec::new();
+        for table in &tables {
+            let mut slave = Slave::initialised(&fmu, &format!("bench_{name}"), model);
+            let mut outputs = [0.0; 9];
+            pass(&mut slave, table, &mut outputs); // warm-up
+            let times: Vec<f64> = (0..passes)
+                .map(|_| pass(&mut slave, table, &mut outputs))
+                .collect();
+            let (low, high) = (
+                times.iter().copied().fold(f64::INFINITY, f64::min),
+                times.iter().copied().fold(0.0, f64::max),
+            );
+            cells.push(format!("{:.0} ({low:.0}-{high:.0})", median(times)));
+        }
+        println!("{name:<12} {:>24} {:>24}", cells[0], cells[1]);
+    }
+}

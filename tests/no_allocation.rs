@@ -1,0 +1,121 @@
+//! SPEC 6b: no heap allocation in fmi2SetReal, fmi2GetReal or fmi2DoStep after the first
+//! step. A counting global allocator watches this test's thread while 10,000 full steps
+//! of each model (5 inputs set with vx and Fz changing every step, a step, 9 outputs
+//! read) run through the crate's exported C functions, called in-process (a separately
+//! loaded .so would bring its own allocator, which this one could not see).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::ffi::CString;
+
+use fmi_sys::fmi2::{fmi2Status_fmi2OK, fmi2Type_fmi2CoSimulation};
+use tirelag::fmi::exports::*;
+
+mod support;
+
+/// Counts allocations (and reallocations) made on a thread while it is watching.
+struct CountingAllocator;
+
+thread_local! {
+    // Const-initialised and without destructors: safe to touch from the allocator.
+    static WATCHING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+fn count() {
+    if WATCHING.with(Cell::get) {
+        ALLOCATIONS.with(|n| n.set(n.get() + 1));
+    }
+}
+
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// Allocations made on this thread by `body`.
+fn allocations_in(body: impl FnOnce()) -> u64 {
+    ALLOCATIONS.with(|n| n.set(0));
+    WATCHING.with(|w| w.set(true));
+    body();
+    WATCHING.with(|w| w.set(false));
+    ALLOCATIONS.with(Cell::get)
+}
+
+const INPUTS: [u32; 5] = [1, 2, 3, 4, 5];
+const OUTPUTS: [u32; 9] = [11, 12, 13, 14, 15, 16, 17, 18, 19];
+const TIRE_MODEL: u32 = 100;
+const OK: i32 = fmi2Status_fmi2OK as i32;
+
+fn inputs_at(k: usize) -> [f64; 5] {
+    let t = k as f64 * 1e-3;
+    [
+        10.0 + 1e-3 * (k % 1000) as f64,
+        0.1 * t.sin(),
+        0.05 * t.cos(),
+        0.01 * t.sin(),
+        50_000.0 * (1.0 + 0.02 * (2.0 * t).sin()),
+    ]
+}
+
+#[test]
+fn the_counter_sees_an_allocation() {
+    assert_eq!(allocations_in(|| drop(std::hint::black_box(vec![1u8; 16]))), 1);
+}
+
+#[test]
+fn a_step_allocates_nothing_after_the_first() {
+    let callbacks = support::callbacks();
+    let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
+    for model in 1..=4 {
+        let name = CString::new(format!("no_allocation_{model}")).unwrap();
+        let c = fmi2Instantiate(
+            name.as_ptr(),
+            fmi2Type_fmi2CoSimulation,
+            guid.as_ptr(),
+            c"".as_ptr(),
+            &callbacks,
+            0,
+            0,
+        );
+        assert!(!c.is_null());
+        assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
+        assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
+        assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
+        let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
+        let mut outputs = [0.0; 9];
+        let mut step = |k: usize| {
+            assert_eq!(fmi2SetReal(c, INPUTS.as_ptr(), 5, table[k].as_ptr()) as i32, OK);
+            assert_eq!(fmi2DoStep(c, k as f64 * 1e-3, 1e-3, 1) as i32, OK);
+            assert_eq!(
+                fmi2GetReal(c, OUTPUTS.as_ptr(), 9, outputs.as_mut_ptr()) as i32,
+                OK
+            );
+        };
+        step(0);
+        let allocations = allocations_in(|| (1..=10_000).for_each(&mut step));
+        assert_eq!(
+            allocations, 0,
+            "model {model}: {allocations} allocations in 10,000 steps"
+        );
+        assert!(outputs.iter().all(|v| v.is_finite()) && outputs[1] != 0.0);
+        fmi2FreeInstance(c);
+    }
+}
