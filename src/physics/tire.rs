@@ -7,7 +7,7 @@ use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
 use super::signals::{Input, OutputVector};
 use super::state_space::{DrivingVector, StateSpace, StateVector};
-use super::stepper::{Advance, AffineSystem, ContactSystem, OperatingPoint};
+use super::stepper::{AffineSystem, ContactSystem, OperatingPoint};
 
 /// How fast the deflections relax while the wheel is off the ground, s: a free carcass
 /// springs back within a few hundredths of a second.
@@ -344,18 +344,14 @@ impl Tire {
             ContactMode::Rolling => &mut self.rolling,
             ContactMode::LiftedOff => &mut self.lifted_off,
         };
+        let map = if fresh {
+            system.step_map()
+        } else {
+            system.make_step_map(point, h)
+        };
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
-        let next_states = if fresh {
-            system.step_map().advance(&self.states, &u0, &du)
-        } else {
-            let advance = Advance {
-                states: &self.states,
-                hold: &u0,
-                ramp: &du,
-            };
-            system.make_step_map(point, h, &advance)
-        };
+        let next_states = map.advance(&self.states, &u0, &du);
         // v * 0 is 0 for every finite v and NaN otherwise: one branch for all values.
         let zero_if_finite = |values: &[f64]| values.iter().map(|v| v * 0.0).sum::<f64>() == 0.0;
         if ramping {

@@ -26,20 +26,12 @@ pub mod affine;
 pub mod blocks;
 pub mod phi;
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SMatrix;
 
 use super::signals::DrivingInput;
 use super::state_space::{DrivingVector, InputMatrix, MAX_STATES, StateMatrix, StateSpace, StateVector};
 pub use affine::{AffineSystem, OperatingPoint};
 pub use blocks::{Block, Blocks};
-
-/// What a step starts from: the states, the inputs at the start (held) and their rates
-/// (ramped).
-pub struct Advance<'a> {
-    pub states: &'a StateVector,
-    pub hold: &'a DrivingVector,
-    pub ramp: &'a DrivingVector,
-}
 
 /// The exact one-step map for inputs `u(t) = u0 + t du`, t from 0 to h:
 /// `x(h) = transition x(0) + hold u0 + ramp du`.
@@ -89,62 +81,36 @@ impl StepMap {
         self.transition.fill(0.0);
         self.hold.fill(0.0);
         self.ramp.fill(0.0);
-        let rest = Advance {
-            states: &StateVector::zeros(),
-            hold: &DrivingVector::zeros(),
-            ramp: &DrivingVector::zeros(),
-        };
-        self.make_blocks(system, blocks, h, &rest);
+        self.make_blocks(system, blocks, h);
     }
 
-    /// Writes every block's entries, and returns `advance`'s states one step on, from the
-    /// block's own values: reading the map back at once would stall on store forwarding.
-    /// The entries between blocks must already be zero (a map made before for the same
-    /// blocks).
-    fn make_blocks(
-        &mut self,
-        system: &StateSpace,
-        blocks: &Blocks,
-        h: f64,
-        advance: &Advance,
-    ) -> StateVector {
-        let mut next = StateVector::zeros();
+    /// Writes every block's entries; the entries between blocks must already be zero
+    /// (a map made before for the same blocks).
+    fn make_blocks(&mut self, system: &StateSpace, blocks: &Blocks, h: f64) {
         for block in blocks.iter() {
             match block.size {
-                1 => self.add_block::<1>(system, block, h, advance, &mut next),
-                2 => self.add_block::<2>(system, block, h, advance, &mut next),
-                3 => self.add_block::<3>(system, block, h, advance, &mut next),
-                4 => self.add_block::<4>(system, block, h, advance, &mut next),
-                5 => self.add_block::<5>(system, block, h, advance, &mut next),
-                _ => self.add_block::<MAX_STATES>(system, block, h, advance, &mut next),
+                1 => self.add_block::<1>(system, block, h),
+                2 => self.add_block::<2>(system, block, h),
+                3 => self.add_block::<3>(system, block, h),
+                4 => self.add_block::<4>(system, block, h),
+                5 => self.add_block::<5>(system, block, h),
+                _ => self.add_block::<MAX_STATES>(system, block, h),
             }
         }
-        next
     }
 
-    fn add_block<const N: usize>(
-        &mut self,
-        system: &StateSpace,
-        block: &Block,
-        h: f64,
-        advance: &Advance,
-        next: &mut StateVector,
-    ) {
+    fn add_block<const N: usize>(&mut self, system: &StateSpace, block: &Block, h: f64) {
         let states = &block.states[..N];
         if N == 1 {
             // A single lag: closed forms, no matrices.
             let state = states[0];
             let (exp, phi1, phi2) = phi::scalar_phi_functions(h * system.a[(state, state)]);
             self.transition[(state, state)] = exp;
-            let mut value = exp * advance.states[state];
             for k in block.inputs() {
                 let b = system.b[(state, k)];
-                let (hold, ramp) = (h * phi1 * b, h * h * phi2 * b);
-                self.hold[(state, k)] = hold;
-                self.ramp[(state, k)] = ramp;
-                value += hold * advance.hold[k] + ramp * advance.ramp[k];
+                self.hold[(state, k)] = h * phi1 * b;
+                self.ramp[(state, k)] = h * h * phi2 * b;
             }
-            next[state] = value;
             return;
         }
         let x = SMatrix::<f64, N, N>::from_fn(|i, j| h * system.a[(states[i], states[j])]);
@@ -156,8 +122,6 @@ impl StepMap {
             [z1, 0.0, c, z2] => resize(phi::lower_triangular_phi_functions(z1, z2, c).transposed()),
             _ => balanced_phi_functions(&x, block),
         };
-        let x0 = SVector::<f64, N>::from_fn(|i, _| advance.states[states[i]]);
-        let mut value = phi.exp * x0;
         for (i, &row) in states.iter().enumerate() {
             for (j, &column) in states.iter().enumerate() {
                 self.transition[(row, column)] = phi.exp[(i, j)];
@@ -167,14 +131,10 @@ impl StepMap {
         for k in block.inputs() {
             let hold = phi.phi1 * inputs.column(k) * h;
             let ramp = phi.phi2 * inputs.column(k) * (h * h);
-            value += hold * advance.hold[k] + ramp * advance.ramp[k];
             for (i, &row) in states.iter().enumerate() {
                 self.hold[(row, k)] = hold[i];
                 self.ramp[(row, k)] = ramp[i];
             }
-        }
-        for (i, &row) in states.iter().enumerate() {
-            next[row] = value[i];
         }
     }
 }
@@ -253,11 +213,11 @@ impl ContactSystem {
         &self.current
     }
 
-    /// Makes the exact step map at `point` over `h` seconds, and returns `advance`'s
-    /// states one step on with it.
-    pub fn make_step_map(&mut self, point: OperatingPoint, h: f64, advance: &Advance) -> StateVector {
+    /// Makes the exact step map at `point` over `h` seconds.
+    pub fn make_step_map(&mut self, point: OperatingPoint, h: f64) -> &StepMap {
         self.at(point);
-        self.map.make_blocks(&self.current, &self.blocks, h, advance)
+        self.map.make_blocks(&self.current, &self.blocks, h);
+        &self.map
     }
 
     /// The step map last made.
