@@ -1,15 +1,15 @@
 //! One FMU instance: the call sequence, variable access and FMU state around a [`Tire`].
 //! Everything here is safe Rust; `exports` turns C pointers into the slices used here.
 
-use crate::physics::{Input, ModelKind, Parameter, Parameters, Tire};
+use crate::physics::{Input, ModelKind, Output, Parameter, Parameters, Tire};
 
 use super::logger::{Category, Logger};
 use super::snapshot::Snapshot;
 use super::state_machine::{Call, Phase};
 use super::status::{CallResult, Rejection, Status};
 use super::variables::{
-    Causality, INPUT_BOUNDS, INPUT_BY_VALUE_REFERENCE, NO_SIGNAL, OUTPUT_BY_VALUE_REFERENCE, Role, VARIABLES,
-    ValueType, Variable,
+    Causality, INPUT_BOUNDS, INPUT_BY_VALUE_REFERENCE, NO_SIGNAL, OUTPUT_BY_VALUE_REFERENCE,
+    OUTPUT_VALUE_REFERENCES, Role, VARIABLES, ValueType, Variable,
 };
 
 /// How far `currentCommunicationPoint` may be from the instance's time, relative to
@@ -248,6 +248,11 @@ impl Instance {
             return false;
         }
         let outputs = self.tire.outputs_ref();
+        // All outputs in their declared order, as importers usually ask: one copy.
+        if refs.len() == Output::COUNT && refs.iter().zip(OUTPUT_VALUE_REFERENCES).all(|(&a, b)| a == b) {
+            values.copy_from_slice(outputs.as_slice());
+            return true;
+        }
         for (&vr, value) in refs.iter().zip(values.iter_mut()) {
             match OUTPUT_BY_VALUE_REFERENCE.get(vr as usize) {
                 Some(&output) if output != NO_SIGNAL => *value = outputs[output as usize],

@@ -162,6 +162,19 @@ const fn signal_table(outputs: bool) -> [u8; VARIABLE_BY_VALUE_REFERENCE.len()] 
     table
 }
 
+/// The value reference of each output, in [`Output`] order.
+pub const OUTPUT_VALUE_REFERENCES: [u32; Output::COUNT] = {
+    let mut references = [0; Output::COUNT];
+    let mut i = 0;
+    while i < VARIABLES.len() {
+        if let Role::Output(output) = VARIABLES[i].variable.role() {
+            references[output as usize] = VARIABLES[i].value_reference;
+        }
+        i += 1;
+    }
+    references
+};
+
 /// `[min, max]` of each input (`Input as usize`); the largest finite values where the
 /// model description gives no bound, so that a comparison also refuses infinities.
 pub const INPUT_BOUNDS: [[f64; 2]; Input::COUNT] = {
