@@ -66,9 +66,9 @@ struct StepKey {
 
 impl StepKey {
     fn same_as(&self, other: &StepKey) -> bool {
-        self.mode == other.mode
+        self.step_size.to_bits() == other.step_size.to_bits()
+            && self.mode == other.mode
             && self.point.same_as(&other.point)
-            && self.step_size.to_bits() == other.step_size.to_bits()
     }
 }
 
@@ -352,6 +352,9 @@ impl Tire {
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
         let next_states = map.advance(&self.states, &u0, &du);
+        // Held inputs end the step where they started: the outputs there come from the
+        // system already at hand, so compute them now rather than look it up again.
+        let outputs = (!ramping).then(|| system.at(point).outputs(&next_states, &u0));
         // v * 0 is 0 for every finite v and NaN otherwise: one branch for all values.
         let zero_if_finite = |values: &[f64]| values.iter().map(|v| v * 0.0).sum::<f64>() == 0.0;
         if ramping {
@@ -368,7 +371,7 @@ impl Tire {
         }
         self.step_made_for = Some(made_for);
         self.states = next_states;
-        self.outputs = None;
+        self.outputs = outputs;
         Ok(())
     }
 

@@ -137,13 +137,14 @@ fn column_major_index(s: &StateSpace, matrix: Matrix, row: usize, column: usize)
     column * rows + row
 }
 
-/// Writes each term into one matrix's storage.
+/// Writes each term into one matrix's storage. The coordinates come padded to a power of
+/// two, so that a masked index needs no bounds check.
 #[inline]
-fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], q: &[f64; OperatingPoint::COORDINATES]) {
+fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], q: &[f64; 8]) {
     for term in terms {
         let index = term.index as usize;
         let base = if term.first { term.at_rest } else { storage[index] };
-        storage[index] = base + term.slope * q[term.coordinate as usize];
+        storage[index] = base + term.slope * q[term.coordinate as usize & 7];
     }
 }
 
@@ -259,7 +260,8 @@ impl AffineSystem {
     /// at some operating point (a copy of [`AffineSystem::at_rest`] or an earlier result):
     /// only the varying entries are rewritten.
     pub fn evaluate(&self, point: OperatingPoint, system: &mut StateSpace) {
-        let q = point.coordinates();
+        let mut q = [0.0; 8];
+        q[..OperatingPoint::COORDINATES].copy_from_slice(&point.coordinates());
         let [a, b, c, d] = self.matrix_ends;
         write_terms(system.a.as_mut_slice(), &self.varying[..a], &q);
         write_terms(system.b.as_mut_slice(), &self.varying[a..b], &q);
