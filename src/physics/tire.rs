@@ -355,18 +355,17 @@ impl Tire {
         // Held inputs end the step where they started: the outputs there come from the
         // system already at hand, so compute them now rather than look it up again.
         let outputs = (!ramping).then(|| system.at(point).outputs(&next_states, &u0));
-        // v * 0 is 0 for every finite v and NaN otherwise: one branch for all values.
-        let zero_if_finite = |values: &[f64]| values.iter().map(|v| v * 0.0).sum::<f64>() == 0.0;
+        let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
         if ramping {
             let mut next_inputs = self.inputs;
             for (value, rate) in next_inputs.iter_mut().zip(self.input_rates) {
                 *value += h * rate;
             }
-            if !(zero_if_finite(next_states.as_slice()) && zero_if_finite(&next_inputs)) {
+            if !(finite(next_states.as_slice()) && finite(&next_inputs)) {
                 return Err(StepError::NotFinite);
             }
             self.inputs = next_inputs;
-        } else if !zero_if_finite(next_states.as_slice()) {
+        } else if !finite(next_states.as_slice()) {
             return Err(StepError::NotFinite);
         }
         self.step_made_for = Some(made_for);
