@@ -56,7 +56,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cosim import (Bicycle, BicycleParameters, Multisine, SteadyStateTire, TireLag,  # noqa: E402
                    fit_rational, load_fmu, log_harmonics)
-from cosim.cli import output_paths, parser, print_table, write_csv  # noqa: E402
+from cosim.cli import print_table, run_example, write_csv  # noqa: E402
 from cosim.frequency import measure_response  # noqa: E402
 
 NAME = "handling_tire_lag"
@@ -234,14 +234,7 @@ def write(res: dict, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    args = parser(__doc__.split("\n\n")[0]).parse_args(argv)
-    res = simulate(args.fmu, args.quick)
-    png, csv_path = output_paths(args.out_dir, NAME)
-    report(res)
-    write(res, csv_path)
-    plot(res, png)
-    print(f"wrote {png}\nwrote {csv_path}")
-    return res
+    return run_example(__doc__.split("\n\n")[0], NAME, simulate, report, write, plot, argv)
 
 
 if __name__ == "__main__":

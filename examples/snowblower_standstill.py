@@ -60,7 +60,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cosim import (Multisine, fit_rational, load_fmu, log_harmonics,  # noqa: E402
                    oscillatory_modes, snowblower)
-from cosim.cli import output_paths, parser, write_csv  # noqa: E402
+from cosim.cli import run_example, write_csv  # noqa: E402
 from cosim.frequency import measure_response  # noqa: E402
 
 NAME = "snowblower_standstill"
@@ -189,14 +189,7 @@ def write(res: dict, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    args = parser(__doc__.split("\n\n")[0]).parse_args(argv)
-    res = simulate(args.fmu, args.quick)
-    png, csv_path = output_paths(args.out_dir, NAME)
-    report(res)
-    write(res, csv_path)
-    plot(res, png)
-    print(f"wrote {png}\nwrote {csv_path}")
-    return res
+    return run_example(__doc__.split("\n\n")[0], NAME, simulate, report, write, plot, argv)
 
 
 if __name__ == "__main__":

@@ -26,6 +26,19 @@ def parser(description: str) -> argparse.ArgumentParser:
     return p
 
 
+def run_example(description: str, name: str, simulate, report, write, plot, argv=None) -> dict:
+    """The body of an example's main: parse the command line, simulate, print what it
+    reproduces, and write <name>.csv and <name>.png under the output folder."""
+    args = parser(description).parse_args(argv)
+    res = simulate(args.fmu, args.quick)
+    png, csv_path = output_paths(args.out_dir, name)
+    report(res)
+    write(res, csv_path)
+    plot(res, png)
+    print(f"wrote {png}\nwrote {csv_path}")
+    return res
+
+
 def output_paths(out_dir: Path, name: str) -> tuple[Path, Path]:
     """(<out_dir>/<name>.png, <out_dir>/<name>.csv), creating out_dir."""
     out_dir = Path(out_dir)
