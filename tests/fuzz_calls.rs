@@ -49,14 +49,12 @@ impl Rng {
         }
     }
     fn value_reference(&mut self) -> u32 {
-        const KNOWN: [u32; 34] = [
-            1, 2, 3, 4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 100, 101, 102, 103, 104, 105, 106, 107, 108,
-            109, 110, 111, 112, 113, 114, 115, 116, 117, 118, 119,
-        ];
+        // Every declared variable, from the generated table: a new one is fuzzed at once.
+        let known = &tirelag::fmi::variables::VARIABLES;
         if self.chance(8) {
             self.next() as u32
         } else {
-            KNOWN[self.below(34) as usize]
+            known[self.below(known.len() as u64) as usize].value_reference
         }
     }
 }
