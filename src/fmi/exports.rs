@@ -105,6 +105,22 @@ fn with_instance(
             instance.logger.log(Status::Ok, Category::All, function);
             Status::Ok
         }
+        failure => report_failure(instance, function, failure),
+    };
+    status as fmi2Status
+}
+
+/// Logs why a call failed and gives its status; out of line, off the path of a call that
+/// succeeds.
+#[cold]
+#[inline(never)]
+fn report_failure(
+    instance: &mut Instance,
+    function: &str,
+    failure: std::thread::Result<CallResult>,
+) -> Status {
+    match failure {
+        Ok(Ok(())) => Status::Ok,
         Ok(Err(rejection)) => {
             instance.log(rejection.status, &format!("{function}: {}", rejection.message));
             rejection.status
@@ -117,8 +133,7 @@ fn with_instance(
             );
             Status::Fatal
         }
-    };
-    status as fmi2Status
+    }
 }
 
 #[unsafe(no_mangle)]
