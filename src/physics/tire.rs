@@ -56,21 +56,9 @@ impl fmt::Display for StepError {
 
 impl std::error::Error for StepError {}
 
-/// What the step map of a contact mode was last made for.
-#[derive(Clone, Copy, Debug)]
-struct StepKey {
-    mode: ContactMode,
-    point: OperatingPoint,
-    step_size: f64,
-}
-
-impl StepKey {
-    fn same_as(&self, other: &StepKey) -> bool {
-        self.step_size.to_bits() == other.step_size.to_bits()
-            && self.mode == other.mode
-            && self.point.same_as(&other.point)
-    }
-}
+/// What the step map was last made for: the bits of vx, Fz (at mid-step) and the step
+/// size. For one parameter set they decide the operating point and the contact mode.
+type StepKey = [u64; 3];
 
 /// A tire with one of the four tire-lag models.
 ///
@@ -332,14 +320,10 @@ impl Tire {
         };
         let point = self.operating_point(vx, load);
         let mode = ContactMode::from_load(load);
-        let made_for = StepKey {
-            mode,
-            point,
-            step_size: h,
-        };
-        let fresh = self.step_made_for.is_some_and(|key| key.same_as(&made_for));
-        // Invalid until made: a refused step must not leave a half-made map behind.
-        self.step_made_for = None;
+        let made_for: StepKey = [vx.to_bits(), load.to_bits(), h.to_bits()];
+        let fresh = self
+            .step_made_for
+            .is_some_and(|key| key[0] == made_for[0] && key[1] == made_for[1] && key[2] == made_for[2]);
         let system = match mode {
             ContactMode::Rolling => &mut self.rolling,
             ContactMode::LiftedOff => &mut self.lifted_off,
@@ -347,6 +331,8 @@ impl Tire {
         let map = if fresh {
             system.step_map()
         } else {
+            // Invalid until made: a refused step must not leave a half-made map behind.
+            self.step_made_for = None;
             system.make_step_map(point, h)
         };
         let u0 = Self::driving_inputs(&self.inputs);
@@ -368,7 +354,9 @@ impl Tire {
         } else if !finite(next_states.as_slice()) {
             return Err(StepError::NotFinite);
         }
-        self.step_made_for = Some(made_for);
+        if !fresh {
+            self.step_made_for = Some(made_for);
+        }
         self.states = next_states;
         self.outputs = outputs;
         Ok(())
