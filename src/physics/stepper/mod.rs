@@ -99,6 +99,37 @@ impl StepMap {
         }
     }
 
+    /// A triangular pair (DDT's yaw lag driving its lateral lag) in closed form; false,
+    /// and nothing written, if the pair is not triangular.
+    fn add_triangular_pair(&mut self, system: &StateSpace, block: &Block, h: f64) -> bool {
+        let (first, second) = (block.states[0], block.states[1]);
+        let (z1, z2) = (h * system.a[(first, first)], h * system.a[(second, second)]);
+        let (upper, lower) = (system.a[(first, second)], system.a[(second, first)]);
+        let phi = if upper == 0.0 {
+            phi::lower_triangular_phi_functions(z1, z2, h * lower)
+        } else if lower == 0.0 {
+            phi::lower_triangular_phi_functions(z1, z2, h * upper).transposed()
+        } else {
+            return false;
+        };
+        let states = [first, second];
+        for (i, &row) in states.iter().enumerate() {
+            for (j, &column) in states.iter().enumerate() {
+                self.transition[(row, column)] = phi.exp[(i, j)];
+            }
+        }
+        for k in block.inputs() {
+            let input = nalgebra::Vector2::new(system.b[(first, k)], system.b[(second, k)]);
+            let hold = phi.phi1 * input * h;
+            let ramp = phi.phi2 * input * (h * h);
+            for (i, &row) in states.iter().enumerate() {
+                self.hold[(row, k)] = hold[i];
+                self.ramp[(row, k)] = ramp[i];
+            }
+        }
+        true
+    }
+
     fn add_block<const N: usize>(&mut self, system: &StateSpace, block: &Block, h: f64) {
         let states = &block.states[..N];
         if N == 1 {
@@ -113,15 +144,12 @@ impl StepMap {
             }
             return;
         }
+        if N == 2 && self.add_triangular_pair(system, block, h) {
+            return;
+        }
         let x = SMatrix::<f64, N, N>::from_fn(|i, j| h * system.a[(states[i], states[j])]);
         let inputs = SMatrix::<f64, N, { DrivingInput::COUNT }>::from_fn(|i, k| system.b[(states[i], k)]);
-        let phi = match *x.as_slice() {
-            // A triangular pair (DDT's yaw lag driving its lateral lag): closed forms.
-            // Column-major: [x00, x10, x01, x11].
-            [z1, c, 0.0, z2] => resize(phi::lower_triangular_phi_functions(z1, z2, c)),
-            [z1, 0.0, c, z2] => resize(phi::lower_triangular_phi_functions(z1, z2, c).transposed()),
-            _ => balanced_phi_functions(&x, block),
-        };
+        let phi = balanced_phi_functions(&x, block);
         for (i, &row) in states.iter().enumerate() {
             for (j, &column) in states.iter().enumerate() {
                 self.transition[(row, column)] = phi.exp[(i, j)];
@@ -151,16 +179,6 @@ fn balanced_phi_functions<const N: usize>(x: &SMatrix<f64, N, N>, block: &Block)
         exp: back(phi.exp),
         phi1: back(phi.phi1),
         phi2: back(phi.phi2),
-    }
-}
-
-/// The same matrices as an N x N type (N is 2 wherever this is called).
-fn resize<const N: usize>(p: phi::PhiFunctions<2>) -> phi::PhiFunctions<N> {
-    let copy = |m: &SMatrix<f64, 2, 2>| SMatrix::<f64, N, N>::from_fn(|i, j| m[(i, j)]);
-    phi::PhiFunctions {
-        exp: copy(&p.exp),
-        phi1: copy(&p.phi1),
-        phi2: copy(&p.phi2),
     }
 }
 
