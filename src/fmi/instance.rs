@@ -1,7 +1,7 @@
 //! One FMU instance: the call sequence, variable access and FMU state around a [`Tire`].
 //! Everything here is safe Rust; `exports` turns C pointers into the slices used here.
 
-use crate::physics::{Input, ModelKind, Output, Parameter, Parameters, Tire};
+use crate::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
 
 use super::logger::{Category, Logger};
 use super::snapshot::Snapshot;
@@ -42,6 +42,10 @@ pub fn start_parameters() -> Result<Parameters, String> {
             Role::ModelChoice => {
                 parameters.model = ModelKind::from_value(start as i64)
                     .ok_or(format!("tireModel start value {start} is not a TireLagModel"))?
+            }
+            Role::FrictionChoice => {
+                parameters.friction = FrictionLaw::from_value(start as i64)
+                    .ok_or(format!("friction start value {start} is not a TireFriction"))?
             }
             Role::Input(_) | Role::Output(_) => {}
         }
@@ -224,7 +228,9 @@ impl Instance {
                 self.sync_tire()?;
                 self.tire.outputs()[output as usize]
             }
-            Role::ModelChoice => unreachable!("lookup checked the type: tireModel is an Integer"),
+            Role::ModelChoice | Role::FrictionChoice => {
+                unreachable!("lookup checked the type: the selectors are Integers")
+            }
         })
     }
 
@@ -290,6 +296,10 @@ impl Instance {
             ),
             Causality::Parameter => match variable.role() {
                 Role::Parameter(p) => p.check(value).map_err(|e| Rejection::error(e.to_string())),
+                Role::FrictionChoice => match FrictionLaw::from_value(value as i64) {
+                    Some(_) if value.fract() == 0.0 => Ok(()),
+                    _ => refuse("the TireFriction values are Unlimited = 1, Coulomb = 2, Brush = 3".into()),
+                },
                 _ => match ModelKind::from_value(value as i64) {
                     Some(_) if value.fract() == 0.0 => Ok(()),
                     _ => refuse(
@@ -313,6 +323,10 @@ impl Instance {
             }
             Role::ModelChoice => {
                 self.parameters.model = ModelKind::from_value(value as i64).expect("checked");
+                self.parameters_changed = true;
+            }
+            Role::FrictionChoice => {
+                self.parameters.friction = FrictionLaw::from_value(value as i64).expect("checked");
                 self.parameters_changed = true;
             }
             Role::Output(_) => unreachable!("outputs are refused by check_settable"),
@@ -377,8 +391,10 @@ impl Instance {
         self.require(Call::GetValues)?;
         same_length("values", value_references.len(), values.len())?;
         for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
-            lookup(vr, ValueType::Integer)?;
-            *value = self.parameters.model as i32;
+            *value = match lookup(vr, ValueType::Integer)?.role() {
+                Role::FrictionChoice => self.parameters.friction as i32,
+                _ => self.parameters.model as i32,
+            };
         }
         Ok(())
     }
@@ -529,6 +545,23 @@ impl Instance {
         }
     }
 
+    /// The friction sliders, for the selected model and law (at rest if the tire is still
+    /// the one of another selection).
+    fn sliders_of_selected_law(&self) -> Option<crate::physics::friction::SliderState> {
+        if self.parameters.friction == FrictionLaw::Unlimited {
+            return None;
+        }
+        let same = self.tire.parameters().model == self.parameters.model
+            && self.tire.parameters().friction == self.parameters.friction;
+        Some(
+            self.tire
+                .sliders()
+                .filter(|_| same)
+                .copied()
+                .unwrap_or(crate::physics::friction::SliderState::AT_REST),
+        )
+    }
+
     pub fn snapshot(&self) -> CallResult<Snapshot> {
         self.require(Call::GetFmuState)?;
         Ok(Snapshot {
@@ -540,6 +573,7 @@ impl Instance {
             inputs: Input::ALL.map(|i| self.tire.input(i)),
             input_rates: Input::ALL.map(|i| self.tire.input_rate(i)),
             states: self.states_of_selected_model(),
+            sliders: self.sliders_of_selected_law(),
         })
     }
 
@@ -549,6 +583,9 @@ impl Instance {
         let mut tire = match Tire::new(snapshot.parameters.clone()) {
             Ok(mut tire) => {
                 tire.set_states(&snapshot.states).map_err(Rejection::error)?;
+                if let Some(sliders) = &snapshot.sliders {
+                    tire.set_sliders(sliders).map_err(Rejection::error)?;
+                }
                 tire
             }
             // Before initialisation the parameters need not fit together yet (they are

@@ -3,17 +3,20 @@
 //! one process continues bit-identically in another.
 //!
 //! Layout (little endian): magic `TIRELAG\0`, format version u32, GUID (u32 length +
-//! bytes), phase u8, model u8, time, start time, stop-time flag u8, stop time, the
-//! parameters, inputs and input rates (f64 each), state count u32 and states (f64 each),
-//! then an FNV-1a 64 checksum of everything before it.
+//! bytes), phase u8, model u8, friction law u8, time, start time, stop-time flag u8, stop
+//! time, the parameters, inputs and input rates (f64 each), state count u32 and states
+//! (f64 each), slider flag u8 and, if 1, the branch deflections (f64, by direction and
+//! branch) and sliding flags (u8, by group and branch), then an FNV-1a 64 checksum of
+//! everything before it.
 
-use crate::physics::{Input, ModelKind, Parameter, Parameters};
+use crate::physics::friction::{Direction, Group, MAX_BRANCHES, SliderState};
+use crate::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters};
 
 use super::state_machine::Phase;
 use super::variables::GUID;
 
 const MAGIC: &[u8; 8] = b"TIRELAG\0";
-const FORMAT_VERSION: u32 = 1;
+const FORMAT_VERSION: u32 = 2;
 
 /// A complete copy of an instance's simulation state.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,6 +29,8 @@ pub struct Snapshot {
     pub inputs: [f64; Input::COUNT],
     pub input_rates: [f64; Input::COUNT],
     pub states: Vec<f64>,
+    /// The friction sliders (none for the Unlimited law).
+    pub sliders: Option<SliderState>,
 }
 
 fn checksum(bytes: &[u8]) -> u64 {
@@ -43,6 +48,7 @@ impl Snapshot {
         out.extend_from_slice(GUID.as_bytes());
         out.push(self.phase as u8);
         out.push(self.parameters.model as u8);
+        out.push(self.parameters.friction as u8);
         let stop_defined = self.stop_time.is_some();
         let mut reals = vec![self.time, self.start_time];
         out.push(u8::from(stop_defined));
@@ -56,6 +62,13 @@ impl Snapshot {
         out.extend_from_slice(&(self.states.len() as u32).to_le_bytes());
         for value in &self.states {
             out.extend_from_slice(&value.to_le_bytes());
+        }
+        out.push(u8::from(self.sliders.is_some()));
+        if let Some(sliders) = &self.sliders {
+            for value in sliders.deflections.iter().flatten() {
+                out.extend_from_slice(&value.to_le_bytes());
+            }
+            out.extend(sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
         }
         let sum = checksum(&out);
         out.extend_from_slice(&sum.to_le_bytes());
@@ -96,11 +109,14 @@ impl Snapshot {
         let model_code = r.u8()?;
         let model =
             ModelKind::from_value(i64::from(model_code)).ok_or(format!("unknown model {model_code}"))?;
+        let friction_code = r.u8()?;
+        let friction = FrictionLaw::from_value(i64::from(friction_code))
+            .ok_or(format!("unknown friction law {friction_code}"))?;
         let stop_defined = r.u8()? != 0;
         let time = r.f64()?;
         let start_time = r.f64()?;
         let stop_time = r.f64()?;
-        let mut parameters = Parameters::default().with_model(model);
+        let mut parameters = Parameters::default().with_model(model).with_friction(friction);
         for p in Parameter::ALL {
             parameters.set(p, r.f64()?).map_err(|e| e.to_string())?;
         }
@@ -118,6 +134,29 @@ impl Snapshot {
             ));
         }
         let states = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
+        let sliders = match r.u8()? {
+            0 if friction == FrictionLaw::Unlimited => None,
+            1 if friction != FrictionLaw::Unlimited => {
+                let mut sliders = SliderState::AT_REST;
+                for value in sliders.deflections.iter_mut().flatten() {
+                    *value = r.f64()?;
+                }
+                for flag in sliders.sliding.iter_mut().flatten() {
+                    *flag = match r.u8()? {
+                        0 => false,
+                        1 => true,
+                        other => return Err(format!("sliding flag {other} is neither 0 nor 1")),
+                    };
+                }
+                Some(sliders)
+            }
+            flag => {
+                return Err(format!(
+                    "slider flag {flag} does not fit the {} friction law",
+                    friction.name()
+                ));
+            }
+        };
         if r.at != body.len() {
             return Err(format!(
                 "{} unexpected bytes at the end of the FMU state",
@@ -129,6 +168,7 @@ impl Snapshot {
             .chain(&inputs)
             .chain(&input_rates)
             .chain(&states)
+            .chain(sliders.iter().flat_map(|s| s.deflections.iter().flatten()))
             .all(|v| v.is_finite());
         if !all_finite {
             return Err("the FMU state holds a value that is not finite".into());
@@ -142,9 +182,12 @@ impl Snapshot {
             inputs,
             input_rates,
             states,
+            sliders,
         })
     }
 }
+
+const _: () = assert!(Direction::COUNT * MAX_BRANCHES == 12 && Group::COUNT * MAX_BRANCHES == 8);
 
 struct Reader<'a> {
     bytes: &'a [u8],
@@ -184,6 +227,10 @@ mod tests {
             inputs: [1.0, -0.2, 0.1, 0.05, 40000.0],
             input_rates: [0.0, 0.5, 0.0, 0.0, 0.0],
             states: vec![1e-3, -2e-3, 0.1, 4e-4, 5e-5, -0.2],
+            sliders: Some(SliderState {
+                deflections: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
+                sliding: [[true, false, false, true], [false; 4]],
+            }),
         }
     }
 

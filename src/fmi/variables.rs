@@ -55,6 +55,8 @@ pub enum Role {
     Parameter(Parameter),
     /// The `tireModel` selector (declared type TireLagModel).
     ModelChoice,
+    /// The `friction` selector (declared type TireFriction).
+    FrictionChoice,
 }
 
 impl Variable {
@@ -111,6 +113,11 @@ impl Variable {
             V::RingDampingX => Role::Parameter(Parameter::RingCircumferentialDamping),
             V::SigmaTread => Role::Parameter(Parameter::TreadRelaxationLength),
             V::CalphaLoadPeak => Role::Parameter(Parameter::CorneringStiffnessPeakLoad),
+            V::Friction => Role::FrictionChoice,
+            V::MuX => Role::Parameter(Parameter::LongitudinalFriction),
+            V::MuY => Role::Parameter(Parameter::LateralFriction),
+            V::MuLoadSensitivity => Role::Parameter(Parameter::FrictionLoadSensitivity),
+            V::BoreRadius => Role::Parameter(Parameter::BoreRadius),
         }
     }
 

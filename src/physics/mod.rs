@@ -11,6 +11,7 @@
 //! holds the states and inputs.
 
 pub mod brush;
+pub mod friction;
 pub mod load;
 pub mod models;
 pub mod parameters;
@@ -19,6 +20,7 @@ pub mod state_space;
 pub mod stepper;
 pub mod tire;
 
+pub use friction::FrictionLaw;
 pub use models::ModelKind;
 pub use parameters::{Parameter, ParameterError, Parameters};
 pub use signals::{DrivingInput, Input, Output, OutputVector};

@@ -5,6 +5,7 @@
 
 use std::fmt;
 
+use super::friction::FrictionLaw;
 use super::models::ModelKind;
 
 /// One real-valued tire parameter.
@@ -50,6 +51,14 @@ pub enum Parameter {
     TreadRelaxationLength,
     /// Load ratio `calphaLoadPeak` = c2 at which the cornering stiffness peaks, 1.
     CorneringStiffnessPeakLoad,
+    /// Longitudinal friction coefficient at Fz0 `muX`, 1.
+    LongitudinalFriction,
+    /// Lateral friction coefficient at Fz0 `muY`, 1.
+    LateralFriction,
+    /// Load sensitivity of the friction coefficients `muLoadSensitivity`, 1.
+    FrictionLoadSensitivity,
+    /// Lever arm of the yaw moment's friction limit `boreRadius` (DDT), m.
+    BoreRadius,
 }
 
 /// What a parameter's value must satisfy on its own.
@@ -61,7 +70,7 @@ enum Bound {
 }
 
 impl Parameter {
-    pub const COUNT: usize = 20;
+    pub const COUNT: usize = 24;
     pub const ALL: [Parameter; Parameter::COUNT] = [
         Parameter::CorneringStiffness,
         Parameter::SlipStiffness,
@@ -83,6 +92,10 @@ impl Parameter {
         Parameter::RingCircumferentialDamping,
         Parameter::TreadRelaxationLength,
         Parameter::CorneringStiffnessPeakLoad,
+        Parameter::LongitudinalFriction,
+        Parameter::LateralFriction,
+        Parameter::FrictionLoadSensitivity,
+        Parameter::BoreRadius,
     ];
 
     /// The parameter's public name (SPEC section 3).
@@ -123,6 +136,10 @@ impl Parameter {
             RingCircumferentialDamping => ("ringDampingX", "N.s/m", NonNegative),
             TreadRelaxationLength => ("sigmaTread", "m", Positive),
             CorneringStiffnessPeakLoad => ("calphaLoadPeak", "1", Positive),
+            LongitudinalFriction => ("muX", "1", NonNegative),
+            LateralFriction => ("muY", "1", NonNegative),
+            FrictionLoadSensitivity => ("muLoadSensitivity", "1", Finite),
+            BoreRadius => ("boreRadius", "m", NonNegative),
         }
     }
 
@@ -174,10 +191,11 @@ impl fmt::Display for ParameterError {
 
 impl std::error::Error for ParameterError {}
 
-/// A complete parameter set: the model choice and every real parameter.
+/// A complete parameter set: the model and friction choices and every real parameter.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Parameters {
     pub model: ModelKind,
+    pub friction: FrictionLaw,
     values: [f64; Parameter::COUNT],
 }
 
@@ -189,9 +207,12 @@ impl Default for Parameters {
     /// D_yaw 400 N.m.s/rad, contact mass 20 kg, ring 30 kg and 8 kg.m2, carcass and ring
     /// dampings 9000 N.s/m, tread relaxation length (contact half-length) 0.1 m, and the
     /// cornering stiffness peaking at twice the nominal load (calphaLoadPeak 2, SPEC 4b).
+    /// Friction (SPEC 4c): the Brush law with mu 0.8 both ways at Fz0, falling by 10 %
+    /// per Fz0 of extra load (muLoadSensitivity -0.1), and a bore radius of 0.1 m.
     fn default() -> Self {
         let mut p = Parameters {
             model: ModelKind::Ddt,
+            friction: FrictionLaw::Brush,
             values: [0.0; Parameter::COUNT],
         };
         for (parameter, value) in [
@@ -215,6 +236,10 @@ impl Default for Parameters {
             (Parameter::RingCircumferentialDamping, 9_000.0),
             (Parameter::TreadRelaxationLength, 0.1),
             (Parameter::CorneringStiffnessPeakLoad, 2.0),
+            (Parameter::LongitudinalFriction, 0.8),
+            (Parameter::LateralFriction, 0.8),
+            (Parameter::FrictionLoadSensitivity, -0.1),
+            (Parameter::BoreRadius, 0.1),
         ] {
             p.values[parameter as usize] = value;
         }
@@ -226,6 +251,12 @@ impl Parameters {
     /// The same parameters with another model.
     pub fn with_model(mut self, model: ModelKind) -> Self {
         self.model = model;
+        self
+    }
+
+    /// The same parameters with another friction law.
+    pub fn with_friction(mut self, friction: FrictionLaw) -> Self {
+        self.friction = friction;
         self
     }
 
@@ -254,6 +285,30 @@ impl Parameters {
                 Parameter::LongitudinalRelaxationLength,
             ],
         };
+        // A damped element's slider holds C u + D du/dt on the ellipse, a spring's holds
+        // C u: the two directions of one ellipse must be alike.
+        let (lateral, longitudinal) = (
+            self.get(Parameter::LateralDamping),
+            self.get(Parameter::LongitudinalDamping),
+        );
+        if self.model == ModelKind::Ddt
+            && self.friction != FrictionLaw::Unlimited
+            && (lateral > 0.0) != (longitudinal > 0.0)
+        {
+            let (zero, other) = if lateral > 0.0 {
+                (Parameter::LongitudinalDamping, Parameter::LateralDamping)
+            } else {
+                (Parameter::LateralDamping, Parameter::LongitudinalDamping)
+            };
+            return Err(ParameterError::new(
+                zero,
+                0.0,
+                format!(
+                    "must be > 0 like {} for DDT with a friction limit (or set both to 0)",
+                    other.name()
+                ),
+            ));
+        }
         for &limit in limits {
             if tread >= self.get(limit) {
                 return Err(ParameterError::new(

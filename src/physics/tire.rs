@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use super::friction::sliding::SlidingStep;
+use super::friction::{Friction, Limits, SliderState};
 use super::load::LoadLaw;
 use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
@@ -40,6 +42,8 @@ pub enum StepError {
     StepSize(f64),
     /// The inputs are so large that the states would overflow.
     NotFinite,
+    /// A step with sliding did not reach its accuracy.
+    NotConverged,
 }
 
 impl fmt::Display for StepError {
@@ -49,6 +53,10 @@ impl fmt::Display for StepError {
             StepError::NotFinite => write!(
                 f,
                 "the states would not be finite after this step: inputs too large"
+            ),
+            StepError::NotConverged => write!(
+                f,
+                "the friction sliders did not converge within this step; try a shorter step"
             ),
         }
     }
@@ -80,6 +88,8 @@ pub struct Tire {
     /// What the step map of the mode last stepped in was made for (`None`: not valid).
     step_made_for: Option<StepKey>,
     outputs: Option<OutputVector>,
+    /// The friction sliders (`None` for the Unlimited law).
+    friction: Option<Friction>,
 }
 
 impl Tire {
@@ -92,6 +102,7 @@ impl Tire {
         let mut inputs = [0.0; Input::COUNT];
         inputs[Input::Fz as usize] = parameters.get(Parameter::NominalLoad);
         let load_law = LoadLaw::new(&parameters);
+        let friction = Friction::new(parameters.friction, model.contact_elements(&parameters));
         let rest = (0.0, 0.0);
         Ok(Self {
             load_law,
@@ -107,7 +118,27 @@ impl Tire {
             input_rates: [0.0; Input::COUNT],
             step_made_for: None,
             outputs: None,
+            friction,
         })
+    }
+
+    /// The friction sliders' state (`None` for the Unlimited law).
+    pub fn sliders(&self) -> Option<&SliderState> {
+        self.friction.as_ref().map(|f| &f.state)
+    }
+
+    /// Replaces the sliders' state (after [`Tire::set_states`], which puts every branch at
+    /// its element's state). The values must be finite.
+    pub fn set_sliders(&mut self, sliders: &SliderState) -> Result<(), String> {
+        let Some(friction) = self.friction.as_mut() else {
+            return Err("the Unlimited law has no friction sliders".into());
+        };
+        if let Some(bad) = sliders.deflections.iter().flatten().find(|v| !v.is_finite()) {
+            return Err(format!("branch deflection {bad} is not finite"));
+        }
+        friction.state = *sliders;
+        self.outputs = None;
+        Ok(())
     }
 
     pub fn parameters(&self) -> &Parameters {
@@ -141,6 +172,9 @@ impl Tire {
             return Err(format!("state value {bad} is not finite"));
         }
         self.states.as_mut_slice()[..count].copy_from_slice(states);
+        if let Some(friction) = self.friction.as_mut() {
+            friction.reset_to(states);
+        }
         self.outputs = None;
         Ok(())
     }
@@ -242,17 +276,120 @@ impl Tire {
     /// Outputs for the current states and inputs, computed once per change of either.
     pub fn outputs_ref(&mut self) -> &OutputVector {
         if self.outputs.is_none() {
-            let u = Self::driving_inputs(&self.inputs);
             let states = self.states;
-            let outputs = self.current_system().outputs(&states, &u);
+            let outputs = match self.friction.as_ref().map(|f| f.state) {
+                Some(sliders) => self.outputs_with_limits(&states, &sliders, &self.inputs.clone()),
+                None => {
+                    let u = Self::driving_inputs(&self.inputs);
+                    self.current_system().outputs(&states, &u)
+                }
+            };
             self.outputs = Some(outputs);
         }
         self.outputs.as_ref().expect("computed above")
     }
 
+    /// The friction step at these inputs, for outputs and their derivatives: `None` off
+    /// the ground or without a limit.
+    fn limited_system(&mut self, inputs: &[f64; Input::COUNT], input_rates: &[f64; Input::COUNT]) -> Option<SlidingStep<'_>> {
+        let (vx, load) = (inputs[Input::Vx as usize], inputs[Input::Fz as usize]);
+        if self.friction.is_none() || ContactMode::from_load(load) == ContactMode::LiftedOff {
+            return None;
+        }
+        let point = self.operating_point(vx, load);
+        let limits = Limits::at(&self.parameters, load);
+        Some(SlidingStep {
+            system: self.rolling.at(point),
+            friction: self.friction.as_ref().expect("checked above"),
+            limits,
+            inputs: Self::driving_inputs(inputs),
+            input_rates: Self::driving_inputs(input_rates),
+        })
+    }
+
+    /// Outputs at given states, branches and inputs, with the friction limits at the
+    /// inputs' load: a spring force beyond its limit is on it (it slides at once), and a
+    /// damped force is the closest point of its ellipse.
+    fn outputs_with_limits(&mut self, x: &StateVector, sliders: &SliderState, inputs: &[f64; Input::COUNT]) -> OutputVector {
+        let u = Self::driving_inputs(inputs);
+        let Some(step) = self.limited_system(inputs, &[0.0; Input::COUNT]) else {
+            let point = self.operating_point(inputs[Input::Vx as usize], inputs[Input::Fz as usize]);
+            let mode = ContactMode::from_load(inputs[Input::Fz as usize]);
+            return self.contact_system(mode).at(point).outputs(x, &u);
+        };
+        let (mut x, mut sliders) = (*x, *sliders);
+        step.prepare(&mut x, &mut sliders);
+        let change = step.damper_force_changes(&x, &sliders);
+        let mut y = step.system.outputs(&x, &u);
+        for (d, element) in step.friction.elements.iter().enumerate() {
+            if let Some(element) = element
+                && change[d] != 0.0
+            {
+                for (output, coefficient) in element.force_outputs {
+                    y[output as usize] += coefficient * change[d];
+                }
+            }
+        }
+        y
+    }
+
+    /// Whether a friction limit acts at the current states and inputs (a group slides or
+    /// is on its limit): the outputs are then not the linear model's.
+    fn limit_acts(&mut self) -> bool {
+        let (inputs, rates) = (self.inputs, self.input_rates);
+        let (mut x, sliders) = (self.states, self.friction.as_ref().map(|f| f.state));
+        match (self.limited_system(&inputs, &rates), sliders) {
+            (Some(step), Some(mut sliders)) => !step.prepare(&mut x, &mut sliders),
+            _ => false,
+        }
+    }
+
+    /// Output rates where a limit acts: a central difference along the motion with the
+    /// limits (the outputs are smooth there, piece by piece).
+    fn limited_output_rates(&mut self) -> OutputVector {
+        let (inputs, rates) = (self.inputs, self.input_rates);
+        let mut x = self.states;
+        let mut sliders = self.friction.as_ref().expect("a limit acts").state;
+        let step = self.limited_system(&inputs, &rates).expect("a limit acts");
+        step.prepare(&mut x, &mut sliders);
+        let (x_rates, branch_rates) = step.rates_at(&x, &sliders);
+        const DT: f64 = 1e-7;
+        let mut at = |sign: f64| {
+            let mut moved = sliders;
+            for (b, r) in moved.deflections.iter_mut().flatten().zip(branch_rates.deflections.iter().flatten()) {
+                *b += sign * DT * r;
+            }
+            let mut moved_inputs = inputs;
+            for (value, rate) in moved_inputs.iter_mut().zip(rates) {
+                *value += sign * DT * rate;
+            }
+            self.outputs_with_limits(&(x + x_rates * (sign * DT)), &moved, &moved_inputs)
+        };
+        (at(1.0) - at(-1.0)) / (2.0 * DT)
+    }
+
+    /// Output sensitivities where a limit acts: a central difference in the input (zero
+    /// along a saturated direction).
+    fn limited_output_sensitivity(&mut self, input: Input) -> OutputVector {
+        let inputs = self.inputs;
+        let (x, sliders) = (self.states, self.friction.as_ref().expect("a limit acts").state);
+        let value = inputs[input as usize];
+        let scale = if input == Input::Fz { self.parameters.get(Parameter::NominalLoad) } else { 1.0 };
+        let delta = 1e-6 * (value.abs() + scale);
+        let mut at = |sign: f64| {
+            let mut moved = inputs;
+            moved[input as usize] += sign * delta;
+            self.outputs_with_limits(&x, &sliders, &moved)
+        };
+        (at(1.0) - at(-1.0)) / (2.0 * delta)
+    }
+
     /// Time derivatives of the outputs at the current states, inputs and input rates
     /// (exact for a constant vx and normal load).
     pub fn output_rates(&mut self) -> OutputVector {
+        if self.limit_acts() {
+            return self.limited_output_rates();
+        }
         let u = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
         let states = self.states;
@@ -265,6 +402,9 @@ impl Tire {
     /// a central difference gives), and the load enters through the length factors (zero
     /// off the ground, where they are fixed).
     pub fn output_sensitivity(&mut self, input: Input) -> OutputVector {
+        if self.limit_acts() {
+            return self.limited_output_sensitivity(input);
+        }
         if let Some(driving) = input.driving() {
             let feedthrough = self.current_system().d.column(driving as usize);
             return OutputVector::from_iterator(feedthrough.iter().copied());
@@ -337,10 +477,51 @@ impl Tire {
         };
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
-        let next_states = map.advance(&self.states, &u0, &du);
+        let mut next_states = map.advance(&self.states, &u0, &du);
+        let mut sliding = false;
+        let next_sliders = match &self.friction {
+            None => None,
+            Some(friction) => {
+                let mut sliders = friction.state;
+                match mode {
+                    ContactMode::LiftedOff => {
+                        // Off the ground every branch relaxes like the states.
+                        let decay = (-h / LIFT_OFF_RELAXATION_TIME).exp();
+                        sliders.deflections.iter_mut().flatten().for_each(|b| *b *= decay);
+                        sliders.sliding = SliderState::AT_REST.sliding;
+                    }
+                    ContactMode::Rolling => {
+                        let step = SlidingStep {
+                            system: system.at(point),
+                            friction,
+                            limits: Limits::at(&self.parameters, load),
+                            inputs: u0,
+                            input_rates: du,
+                        };
+                        let mut start = self.states;
+                        let sticking = if step.prepare(&mut start, &mut sliders) {
+                            step.sticking_step(&start, &next_states, &sliders, h)
+                        } else {
+                            None
+                        };
+                        match sticking {
+                            Some(next) => sliders = next,
+                            None => {
+                                step.integrate(&mut start, &mut sliders, h)
+                                    .map_err(|_| StepError::NotConverged)?;
+                                next_states = start;
+                                sliding = true;
+                            }
+                        }
+                    }
+                }
+                Some(sliders)
+            }
+        };
         // Held inputs end the step where they started: the outputs there come from the
         // system already at hand, so compute them now rather than look it up again.
-        let outputs = (!ramping).then(|| system.at(point).outputs(&next_states, &u0));
+        // (After a step with sliding the limits shape them: they are computed on demand.)
+        let outputs = (!ramping && !sliding).then(|| system.at(point).outputs(&next_states, &u0));
         let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
         if ramping {
             let mut next_inputs = self.inputs;
@@ -359,6 +540,9 @@ impl Tire {
         }
         self.states = next_states;
         self.outputs = outputs;
+        if let (Some(friction), Some(sliders)) = (self.friction.as_mut(), next_sliders) {
+            friction.state = sliders;
+        }
         Ok(())
     }
 

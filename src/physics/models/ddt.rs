@@ -6,6 +6,7 @@
 //! The tread dampers keep it damped at standstill.
 
 use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
+use crate::physics::friction::{ContactElement, ContactElements};
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
@@ -62,6 +63,24 @@ impl TireLagModel for Ddt {
         write_rolling_moment_from_fx(&mut b, p);
         write_common_outputs(&mut b, p, at);
         b.finish()
+    }
+
+    /// The lateral and longitudinal spring-dampers and the yaw spring-damper, whose
+    /// moment is `-Mz` (less the trail term).
+    fn contact_elements(&self, p: &Parameters) -> ContactElements {
+        let lateral = ContactElement {
+            state: LATERAL,
+            stiffness: p.lateral_stiffness(),
+            damping: p.get(Parameter::LateralDamping),
+            force_outputs: [(Output::Fy, -1.0), (Output::Mz, p.get(Parameter::PneumaticTrail))],
+        };
+        let yaw = ContactElement {
+            state: YAW,
+            stiffness: p.get(Parameter::YawStiffness),
+            damping: p.get(Parameter::YawDamping),
+            force_outputs: [(Output::Mz, -1.0), (Output::Mz, 0.0)],
+        };
+        [Some(longitudinal(p).longitudinal_element(p)), Some(lateral), Some(yaw)]
     }
 
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {

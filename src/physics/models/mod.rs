@@ -7,6 +7,7 @@ mod ring_body;
 mod rlt;
 mod second_order;
 
+use super::friction::{ContactElement, ContactElements};
 use super::parameters::{Parameter, Parameters};
 use super::signals::{DrivingInput, Output};
 use super::state_space::{StateSpace, StateVector, SystemBuilder};
@@ -67,6 +68,10 @@ pub trait TireLagModel: Sync {
 
     /// Mechanical energy stored in the tire (springs and moving masses), J.
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64;
+
+    /// The elements through which the model touches the road (SPEC 4c), by direction;
+    /// each gets a friction slider in series.
+    fn contact_elements(&self, p: &Parameters) -> ContactElements;
 }
 
 /// First-order relaxation of a deflection `u` driven by a slip velocity:
@@ -111,6 +116,28 @@ impl Relaxation {
 
     fn energy(&self, x: &StateVector) -> f64 {
         0.5 * self.stiffness * x[self.state].powi(2)
+    }
+
+    /// The relaxing spring (and damper) as a contact element. Its force
+    /// `stiffness u + damping du/dt` is `-force`; `feeds` is the output that `force` feeds
+    /// and the factor (`Mz = -trail Fy`, `My = -Re Fx`).
+    fn contact_element(&self, feeds: (Output, f64)) -> ContactElement {
+        ContactElement {
+            state: self.state,
+            stiffness: self.stiffness,
+            damping: self.damping,
+            force_outputs: [(self.force, -1.0), (feeds.0, -feeds.1)],
+        }
+    }
+
+    /// A lateral relaxation: Fy feeds Mz through the trail.
+    fn lateral_element(&self, p: &Parameters) -> ContactElement {
+        self.contact_element((Output::Mz, -p.get(Parameter::PneumaticTrail)))
+    }
+
+    /// A longitudinal relaxation: Fx feeds My through the rolling radius.
+    fn longitudinal_element(&self, p: &Parameters) -> ContactElement {
+        self.contact_element((Output::My, -p.get(Parameter::RollingRadius)))
     }
 }
 
@@ -171,6 +198,16 @@ impl ContactMass {
     /// Deflection of the wheel relative to the ground contact point: `tread - offset`.
     fn deflection(&self, b: &mut SystemBuilder, output: Output) {
         b.output(output, &[(self.tread, 1.0), (self.offset, -1.0)], &[]);
+    }
+
+    /// The tread spring as a contact element: its force acts on the contact mass.
+    fn tread_element(&self) -> ContactElement {
+        ContactElement {
+            state: self.tread,
+            stiffness: self.tread_stiffness,
+            damping: 0.0,
+            force_outputs: ContactElement::NO_OUTPUTS,
+        }
     }
 
     fn energy(&self, x: &StateVector) -> f64 {

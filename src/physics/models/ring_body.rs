@@ -6,6 +6,7 @@
 //! My passes through the ring spring-damper, `-Re (k_x xr + ringDampingX (wx - vsx))`.
 
 use super::{ContactMass, TireLagModel, write_common_outputs};
+use crate::physics::friction::ContactElements;
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
@@ -64,5 +65,12 @@ impl TireLagModel for RingBody {
 
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         lateral(p).energy(x) + circumferential(p).energy(x)
+    }
+
+    /// The treads; Fx is the circumferential tread force itself (`Fx = -kT_x uTx`).
+    fn contact_elements(&self, p: &Parameters) -> ContactElements {
+        let mut circumferential = circumferential(p).tread_element();
+        circumferential.force_outputs[0] = (Output::Fx, -1.0);
+        [Some(circumferential), Some(lateral(p).tread_element()), None]
     }
 }

@@ -4,6 +4,7 @@
 //! At standstill it is an undamped spring of stiffness `C_y = Calpha/sigmaY`.
 
 use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
+use crate::physics::friction::ContactElements;
 use crate::physics::parameters::Parameters;
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
@@ -42,5 +43,13 @@ impl TireLagModel for Rlt {
 
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         lateral(p).energy(x) + Relaxation::longitudinal(p, LONGITUDINAL, 0.0).energy(x)
+    }
+
+    fn contact_elements(&self, p: &Parameters) -> ContactElements {
+        [
+            Some(Relaxation::longitudinal(p, LONGITUDINAL, 0.0).longitudinal_element(p)),
+            Some(lateral(p).lateral_element(p)),
+            None,
+        ]
     }
 }

@@ -6,6 +6,7 @@
 //! (`kT_y = Calpha/sigmaTread`); longitudinally it is RLT.
 
 use super::{ContactMass, Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
+use crate::physics::friction::ContactElements;
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::Output;
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
@@ -44,5 +45,13 @@ impl TireLagModel for SecondOrder {
 
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         lateral(p).energy(x) + Relaxation::longitudinal(p, LONGITUDINAL, 0.0).energy(x)
+    }
+
+    fn contact_elements(&self, p: &Parameters) -> ContactElements {
+        [
+            Some(Relaxation::longitudinal(p, LONGITUDINAL, 0.0).longitudinal_element(p)),
+            Some(lateral(p).tread_element()),
+            None,
+        ]
     }
 }

@@ -1,0 +1,505 @@
+//! A step in which a branch slides, or may start to: the model's states and every branch
+//! deflection integrated together, piece by piece between stick/slide events.
+//!
+//! Within a piece every group keeps its mode, so the right-hand side is smooth; it is
+//! integrated by Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial
+//! extrapolation in h^2) to a relative 1e-12. After each substep the groups' event values
+//! are checked; where one crosses zero, the crossing time is found by regula falsi
+//! (Illinois) on the length of the substep, the state is taken there, the group changes
+//! mode, and integration goes on. A spring group that slides is kept on its ellipse to
+//! rounding after every substep, so the ellipse is never exceeded.
+//!
+//! The result is a function of the states, inputs and step size only (nothing is carried
+//! from one step to the next), so a restored FMU state continues bit-identically.
+
+use super::group::{GroupInput, GroupOutput};
+use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
+use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
+
+/// The model's states, then the branch deflections by direction and branch.
+const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
+type Vector = [f64; SIZE];
+
+fn branch_index(direction: usize, branch: usize) -> usize {
+    MAX_STATES + direction * MAX_BRANCHES + branch
+}
+
+/// Midpoint substep counts of the extrapolation rows.
+const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
+/// Relative accuracy of each substep.
+const TOLERANCE: f64 = 1e-12;
+/// An event value above this has crossed; below it, rounding.
+const EVENT_TOLERANCE: f64 = 1e-12;
+/// At most this many substeps and events per step (a safeguard: a step takes a handful).
+const MAX_SUBSTEPS: usize = 100_000;
+
+type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
+type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
+
+/// The coupled system of one step: the model at its operating point with held or ramped
+/// driving inputs, and its branches at the step's limits.
+pub struct SlidingStep<'a> {
+    pub system: &'a StateSpace,
+    pub friction: &'a Friction,
+    pub limits: Limits,
+    pub inputs: DrivingVector,
+    pub input_rates: DrivingVector,
+}
+
+/// Why the integration gave up (the tire is left unchanged).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NotConverged;
+
+impl<'a> SlidingStep<'a> {
+    fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
+        let mut z = [0.0; SIZE];
+        z[..MAX_STATES].copy_from_slice(x.as_slice());
+        for d in 0..Direction::COUNT {
+            for i in 0..self.friction.branches.len() {
+                z[branch_index(d, i)] = sliders.deflections[d][i];
+            }
+        }
+        z
+    }
+
+    /// The model's states with each element's state the weighted sum of its branches.
+    fn model_states(&self, z: &Vector) -> StateVector {
+        let mut x = StateVector::from_column_slice(&z[..MAX_STATES]);
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if let Some(element) = element {
+                x[element.state] = self
+                    .friction
+                    .branches
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| b.stiffness_fraction * z[branch_index(d, i)])
+                    .sum();
+            }
+        }
+        x
+    }
+
+    /// One group's branch `i` at model rates `x_rates` (whose element rows hold the
+    /// sticking rate of `U`).
+    pub fn group_input(&self, group: Group, i: usize, x: &StateVector, x_rates: &StateVector, z: &Vector) -> GroupInput {
+        let branch = self.friction.branches[i];
+        let mut input = GroupInput::default();
+        for &direction in group.directions() {
+            let d = direction as usize;
+            let Some(element) = self.friction.elements[d] else { continue };
+            let k = element.state;
+            let relaxation = self.system.a[(k, k)];
+            let b = z[branch_index(d, i)];
+            input.present[d] = true;
+            input.deflection[d] = b;
+            // The model's rate of U with b in its own relaxation term.
+            input.sticking_rate[d] = x_rates[k] + relaxation * (b - x[k]);
+            input.stiffness[d] = branch.stiffness_fraction * element.stiffness;
+            input.damping[d] = branch.stiffness_fraction * element.damping;
+            input.limit[d] = branch.limit_fraction * self.limits.0[d];
+        }
+        input
+    }
+
+    fn inputs_at(&self, t: f64) -> DrivingVector {
+        self.inputs + self.input_rates * t
+    }
+
+    /// Rates of every entry, and the groups' event values.
+    fn rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
+        let x = self.model_states(z);
+        let u = self.inputs_at(t);
+        let mut x_rates = self.system.state_rates(&x, &u);
+        let mut rates = [0.0; SIZE];
+        let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
+        for group in self.friction.groups() {
+            for i in 0..self.friction.branches.len() {
+                let out: GroupOutput = self
+                    .group_input(group, i, &x, &x_rates, z)
+                    .evaluate(modes[group as usize][i]);
+                for &direction in group.directions() {
+                    let d = direction as usize;
+                    if self.friction.elements[d].is_some() {
+                        rates[branch_index(d, i)] = out.rate[d];
+                    }
+                }
+                events[group as usize][i] = out.event;
+            }
+        }
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if let Some(element) = element {
+                x_rates[element.state] = self
+                    .friction
+                    .branches
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| b.stiffness_fraction * rates[branch_index(d, i)])
+                    .sum();
+            }
+        }
+        rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
+        (rates, events)
+    }
+
+    fn events(&self, t: f64, z: &Vector, modes: &Modes) -> Events {
+        self.rates(t, z, modes).1
+    }
+
+    /// The modified midpoint rule with `n` substeps over `[t, t + length]`.
+    fn midpoint(&self, t: f64, z: &Vector, start_rates: &Vector, length: f64, n: usize, modes: &Modes) -> Vector {
+        let h = length / n as f64;
+        let mut previous = *z;
+        let mut current = *z;
+        for (c, r) in current.iter_mut().zip(start_rates) {
+            *c += h * r;
+        }
+        for m in 1..n {
+            let (rates, _) = self.rates(t + m as f64 * h, &current, modes);
+            let mut next = previous;
+            for ((nx, r), _) in next.iter_mut().zip(&rates).zip(0..) {
+                *nx += 2.0 * h * r;
+            }
+            previous = current;
+            current = next;
+        }
+        let (rates, _) = self.rates(t + length, &current, modes);
+        let mut out = [0.0; SIZE];
+        for k in 0..SIZE {
+            out[k] = 0.5 * (current[k] + previous[k] + h * rates[k]);
+        }
+        out
+    }
+
+    /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
+    /// the number of rows used.
+    fn substep(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64) -> Option<(Vector, usize)> {
+        let (start_rates, _) = self.rates(t, z, modes);
+        let mut table = [[0.0; SIZE]; SEQUENCE.len()];
+        for j in 0..SEQUENCE.len() {
+            let mut row = [[0.0; SIZE]; SEQUENCE.len()];
+            row[0] = self.midpoint(t, z, &start_rates, length, SEQUENCE[j], modes);
+            for k in 1..=j {
+                let ratio = (SEQUENCE[j] as f64 / SEQUENCE[j - k] as f64).powi(2) - 1.0;
+                for c in 0..SIZE {
+                    row[k][c] = row[k - 1][c] + (row[k - 1][c] - table[k - 1][c]) / ratio;
+                }
+            }
+            if j >= 2 {
+                let error = (0..SIZE)
+                    .map(|c| (row[j][c] - row[j - 1][c]).abs() / (TOLERANCE * (scale + z[c].abs().max(row[j][c].abs()))))
+                    .fold(0.0, f64::max);
+                if error <= 1.0 {
+                    return Some((row[j], j));
+                }
+            }
+            table = row;
+        }
+        None
+    }
+
+    /// Puts each sliding spring group back on its ellipse (it drifts by rounding).
+    fn hold_on_limits(&self, z: &mut Vector, modes: &Modes) {
+        let x = self.model_states(z);
+        for group in self.friction.groups() {
+            for i in 0..self.friction.branches.len() {
+                if !modes[group as usize][i] {
+                    continue;
+                }
+                let input = self.group_input(group, i, &x, &x, z);
+                if input.damped() {
+                    continue;
+                }
+                let utilisation = input.utilisation(&input.spring_force());
+                if utilisation > 0.0 {
+                    let shrink = utilisation.sqrt().recip();
+                    for &direction in group.directions() {
+                        let d = direction as usize;
+                        if input.present[d] {
+                            z[branch_index(d, i)] *= shrink;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses zero.
+    fn crossing(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64, (g, i): (usize, usize), start: f64, end: f64) -> f64 {
+        let (mut lo, mut hi) = (0.0, length);
+        let (mut e_lo, mut e_hi) = (start.min(0.0), end);
+        let mut side = 0;
+        for _ in 0..80 {
+            if hi - lo <= 1e-14 * length.max(f64::MIN_POSITIVE) {
+                break;
+            }
+            let mut tau = (lo * e_hi - hi * e_lo) / (e_hi - e_lo);
+            if !(tau > lo && tau < hi) {
+                tau = 0.5 * (lo + hi);
+            }
+            let Some((z_tau, _)) = self.substep(t, z, tau, modes, scale) else {
+                break;
+            };
+            let e = self.events(t + tau, &z_tau, modes)[g][i];
+            if e > 0.0 {
+                hi = tau;
+                e_hi = e;
+                if side == 1 {
+                    e_lo *= 0.5;
+                }
+                side = 1;
+            } else {
+                lo = tau;
+                e_lo = e;
+                if side == -1 {
+                    e_hi *= 0.5;
+                }
+                side = -1;
+            }
+        }
+        hi
+    }
+
+    /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
+    /// of the step.
+    pub fn integrate(&self, x: &mut StateVector, sliders: &mut SliderState, h: f64) -> Result<(), NotConverged> {
+        let mut z = self.pack(x, sliders);
+        let mut modes = sliders.sliding;
+        let scale = self.deflection_scale();
+        let mut t = 0.0;
+        let mut length = h.min(self.initial_substep());
+        for _ in 0..MAX_SUBSTEPS {
+            if t >= h {
+                break;
+            }
+            length = length.min(h - t);
+            let Some((z_end, rows)) = self.substep(t, &z, length, &modes, scale) else {
+                length *= 0.25;
+                if length <= 1e-15 * h {
+                    return Err(NotConverged);
+                }
+                continue;
+            };
+            let start_events = self.events(t, &z, &modes);
+            let end_events = self.events(t + length, &z_end, &modes);
+            // The earliest crossing among the groups whose event value rose past zero.
+            let mut first: Option<(f64, usize, usize)> = None;
+            for g in 0..Group::COUNT {
+                for i in 0..self.friction.branches.len() {
+                    if end_events[g][i] > EVENT_TOLERANCE {
+                        let at = if start_events[g][i] > 0.0 {
+                            0.0
+                        } else {
+                            self.crossing(t, &z, length, &modes, scale, (g, i), start_events[g][i], end_events[g][i])
+                        };
+                        if first.is_none_or(|(best, _, _)| at < best) {
+                            first = Some((at, g, i));
+                        }
+                    }
+                }
+            }
+            match first {
+                None => {
+                    z = z_end;
+                    t += length;
+                    self.hold_on_limits(&mut z, &modes);
+                    if rows <= 3 {
+                        length *= 2.0;
+                    } else if rows >= 6 {
+                        length *= 0.7;
+                    }
+                }
+                Some((at, g, i)) => {
+                    if at > 0.0 {
+                        let Some((z_at, _)) = self.substep(t, &z, at, &modes, scale) else {
+                            return Err(NotConverged);
+                        };
+                        z = z_at;
+                        t += at;
+                    }
+                    modes[g][i] = !modes[g][i];
+                    self.hold_on_limits(&mut z, &modes);
+                }
+            }
+        }
+        if t < h {
+            return Err(NotConverged);
+        }
+        *x = self.model_states(&z);
+        for d in 0..Direction::COUNT {
+            for i in 0..self.friction.branches.len() {
+                sliders.deflections[d][i] = z[branch_index(d, i)];
+            }
+        }
+        sliders.sliding = modes;
+        Ok(())
+    }
+
+    /// A deflection typical of the elements: the largest elastic travel to a limit.
+    fn deflection_scale(&self) -> f64 {
+        self.friction
+            .elements
+            .iter()
+            .enumerate()
+            .filter_map(|(d, e)| e.map(|e| self.limits.0[d] / e.stiffness.max(f64::MIN_POSITIVE)))
+            .fold(0.0, f64::max)
+            .max(1e-9)
+    }
+
+    /// A first substep that the extrapolation handles: a few of the fastest rates.
+    fn initial_substep(&self) -> f64 {
+        let n = self.system.states;
+        let mut fastest = (0..n).map(|k| self.system.a[(k, k)].abs()).fold(0.0, f64::max);
+        for e in self.friction.elements.iter().flatten() {
+            if e.damping > 0.0 {
+                fastest = fastest.max(e.stiffness / e.damping);
+            }
+        }
+        if fastest > 0.0 { 2.0 / fastest } else { f64::INFINITY }
+    }
+}
+
+impl<'a> SlidingStep<'a> {
+    /// Brings the branches to the step's limits and inputs at its start: a spring force
+    /// outside its limit is put on it (the load fell), and each group's mode is decided
+    /// from its state. Returns true if every group sticks strictly inside its limit.
+    pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
+        let mut z = self.pack(x, sliders);
+        let mut inside = true;
+        let states = self.model_states(&z);
+        let rates = self.system.state_rates(&states, &self.inputs);
+        for group in self.friction.groups() {
+            for i in 0..self.friction.branches.len() {
+                let input = self.group_input(group, i, &states, &rates, &z);
+                let sliding = if input.damped() {
+                    let utilisation = input.utilisation(&input.sticking_force());
+                    inside &= utilisation < 1.0;
+                    utilisation > 1.0
+                } else {
+                    let force = input.spring_force();
+                    let utilisation = input.utilisation(&force);
+                    inside &= utilisation < 1.0;
+                    if utilisation > 1.0 {
+                        let shrink = utilisation.sqrt().recip();
+                        for &direction in group.directions() {
+                            if input.present[direction as usize] {
+                                z[branch_index(direction as usize, i)] *= shrink;
+                            }
+                        }
+                    }
+                    utilisation >= 1.0 - EVENT_TOLERANCE && input.outward_cosine(&force) > 0.0
+                };
+                sliders.sliding[group as usize][i] = sliding;
+            }
+        }
+        *x = self.model_states(&z);
+        for d in 0..Direction::COUNT {
+            for i in 0..self.friction.branches.len() {
+                sliders.deflections[d][i] = z[branch_index(d, i)];
+            }
+        }
+        inside
+    }
+
+    /// The change of the element forces (by direction) that the damped groups' limits
+    /// make at these states and inputs: the sticking force where it is inside the limit,
+    /// the closest point of the ellipse where it is not.
+    pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
+        let z = self.pack(x, sliders);
+        let states = self.model_states(&z);
+        let rates = self.system.state_rates(&states, &self.inputs);
+        let mut change = [0.0; Direction::COUNT];
+        for group in self.friction.groups() {
+            for i in 0..self.friction.branches.len() {
+                let input = self.group_input(group, i, &states, &rates, &z);
+                if !input.damped() {
+                    continue;
+                }
+                let trial = input.sticking_force();
+                let utilisation = input.utilisation(&trial);
+                if utilisation > 1.0 {
+                    let force = input.closest_point(&trial, utilisation);
+                    for d in 0..Direction::COUNT {
+                        change[d] += force[d] - trial[d];
+                    }
+                }
+            }
+        }
+        change
+    }
+
+    /// The rates of the model's states and of the branches at these states (the state
+    /// rates with the limits acting).
+    pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
+        let z = self.pack(x, sliders);
+        let (rates, _) = self.rates(0.0, &z, &sliders.sliding);
+        let mut branch_rates = SliderState::AT_REST;
+        for d in 0..Direction::COUNT {
+            for i in 0..self.friction.branches.len() {
+                branch_rates.deflections[d][i] = rates[branch_index(d, i)];
+            }
+        }
+        (StateVector::from_column_slice(&rates[..MAX_STATES]), branch_rates)
+    }
+}
+
+impl<'a> SlidingStep<'a> {
+    /// After an exact linear step from `start` to `end` with every group sticking: the
+    /// branches at the end (each `b_i - U` decays with its element's relaxation), if no
+    /// branch force can have reached its limit within the step ([`super::force_bound`]);
+    /// `None` if one may have.
+    pub fn sticking_step(&self, start: &StateVector, end: &StateVector, sliders: &SliderState, h: f64) -> Option<SliderState> {
+        let end_inputs = self.inputs + self.input_rates * h;
+        let start_rates = self.system.state_rates(start, &self.inputs);
+        let end_rates = self.system.state_rates(end, &end_inputs);
+        let branches = self.friction.branches;
+        let mut next = *sliders;
+        let mut bound = [[0.0; MAX_BRANCHES]; Direction::COUNT];
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            let Some(element) = element else { continue };
+            let k = element.state;
+            let relaxation = self.system.a[(k, k)];
+            let (stiffness, damping) = (element.stiffness, element.damping);
+            // The element force C U + D dU/dt and its rate, at both ends.
+            let force_and_rate = |x: &StateVector, rates: &StateVector| {
+                let mut rate = stiffness * rates[k];
+                if damping > 0.0 {
+                    let acceleration = (self.system.a.row(k) * rates)[0] + (self.system.b.row(k) * self.input_rates)[0];
+                    rate += damping * acceleration;
+                }
+                (stiffness * x[k] + damping * rates[k], rate)
+            };
+            let (f0, r0) = force_and_rate(start, &start_rates);
+            let (f1, r1) = force_and_rate(end, &end_rates);
+            // A branch differs from U by an offset that relaxes at the element's rate.
+            let offsets = &sliders.deflections[d][..branches.len()];
+            let decay = if offsets.iter().any(|&b| b != start[k]) { (relaxation * h).exp() } else { 1.0 };
+            let offset_force = stiffness + damping * relaxation;
+            for (i, branch) in branches.iter().enumerate() {
+                let w = branch.stiffness_fraction;
+                let (offset0, offset1) = (offsets[i] - start[k], (offsets[i] - start[k]) * decay);
+                bound[d][i] = super::force_bound(
+                    w * (f0 + offset_force * offset0),
+                    w * (f1 + offset_force * offset1),
+                    w * (r0 + offset_force * relaxation * offset0),
+                    w * (r1 + offset_force * relaxation * offset1),
+                    h,
+                );
+                next.deflections[d][i] = end[k] + offset1;
+            }
+        }
+        for group in self.friction.groups() {
+            for (i, branch) in branches.iter().enumerate() {
+                let utilisation: f64 = group
+                    .directions()
+                    .iter()
+                    .filter(|&&d| self.friction.elements[d as usize].is_some())
+                    .map(|&d| (bound[d as usize][i] / (branch.limit_fraction * self.limits.0[d as usize])).powi(2))
+                    .sum();
+                if !(utilisation < 1.0) {
+                    return None;
+                }
+            }
+        }
+        Some(next)
+    }
+}
