@@ -109,6 +109,10 @@ fn every_spec_variable_is_declared_with_its_unit() {
         ("ringDampingX", "N.s/m"),
         ("sigmaTread", "m"),
         ("calphaLoadPeak", "1"),
+        ("muX", "1"),
+        ("muY", "1"),
+        ("muLoadSensitivity", "1"),
+        ("boreRadius", "m"),
     ];
     for (name, unit) in expected {
         let info = VARIABLES
@@ -124,6 +128,12 @@ fn every_spec_variable_is_declared_with_its_unit() {
         (ValueType::Integer, Some(2.0), Some(1.0), Some(4.0)),
         "tireModel is an Integer from 1 to 4 that starts as DDT"
     );
+    let friction = Variable::Friction.info();
+    assert_eq!(
+        (friction.value_type, friction.start, friction.min, friction.max),
+        (ValueType::Integer, Some(3.0), Some(1.0), Some(3.0)),
+        "friction is an Integer from 1 to 3 that starts as Brush"
+    );
 }
 
 #[test]
@@ -133,6 +143,7 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
     wanted.extend(Output::ALL.map(Role::Output));
     wanted.extend(Parameter::ALL.map(Role::Parameter));
     wanted.push(Role::ModelChoice);
+    wanted.push(Role::FrictionChoice);
     assert_eq!(roles.len(), wanted.len());
     for role in wanted {
         assert_eq!(roles.iter().filter(|r| **r == role).count(), 1, "{role:?}");
@@ -142,7 +153,9 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
         let causality_fits = match info.variable.role() {
             Role::Input(_) => info.causality == Causality::Input,
             Role::Output(_) => info.causality == Causality::Output,
-            Role::Parameter(_) | Role::ModelChoice => info.causality == Causality::Parameter,
+            Role::Parameter(_) | Role::ModelChoice | Role::FrictionChoice => {
+                info.causality == Causality::Parameter
+            }
         };
         assert!(causality_fits, "{}", info.name);
     }

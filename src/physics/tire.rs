@@ -546,8 +546,19 @@ impl Tire {
         Ok(())
     }
 
-    /// Mechanical energy stored in the tire's springs and masses, J.
+    /// Mechanical energy stored in the tire's springs and masses, J. With friction each
+    /// element's spring energy is that of its branches, `sum w_i C b_i^2 / 2`.
     pub fn stored_energy(&self) -> f64 {
-        self.model().stored_energy(&self.parameters, &self.states)
+        let mut energy = self.model().stored_energy(&self.parameters, &self.states);
+        if let Some(friction) = &self.friction {
+            for (d, element) in friction.elements.iter().enumerate() {
+                let Some(element) = element else { continue };
+                energy -= 0.5 * element.stiffness * self.states[element.state].powi(2);
+                for (branch, b) in friction.branches.iter().zip(&friction.state.deflections[d]) {
+                    energy += 0.5 * branch.stiffness_fraction * element.stiffness * b * b;
+                }
+            }
+        }
+        energy
     }
 }

@@ -17,6 +17,7 @@ import pytest
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import friction_reference as fr  # noqa: E402
 import reference as ref  # noqa: E402
 
 REPO = HERE.parents[1]
@@ -25,6 +26,11 @@ FMU_PATH = REPO / "target" / "fmu" / "TireLag.fmu"
 _IN_ALL = [ref.INPUT_VR[n] for n in ref.INPUTS]                  # vx vy steerRate vsx Fz
 _IN_DRIVING = [ref.INPUT_VR[n] for n in ref.DRIVING]             # vy steerRate vsx
 _OUT_ALL = [ref.OUTPUT_VR[n] for n in ref.OUTPUTS]
+
+
+def has_friction(model_description):
+    """True if the FMU declares the friction selector of SPEC 4c."""
+    return any(v.name == "friction" for v in model_description.modelVariables)
 
 
 def _uint_array(values):
@@ -39,7 +45,10 @@ class Tire:
     """
 
     def __init__(self, model_description, unzipdir, model="DDT", params=None,
-                 vx=0.0, vy=0.0, steerRate=0.0, vsx=0.0, Fz=None, name="tire"):
+                 vx=0.0, vy=0.0, steerRate=0.0, vsx=0.0, Fz=None, name="tire",
+                 friction="Unlimited"):
+        """friction: "Unlimited" (default, so the linear tests stay linear), "Coulomb" or
+        "Brush" (SPEC 4c); set only if the FMU declares the `friction` variable."""
         from fmpy.fmi2 import FMU2Slave
 
         self.md = model_description
@@ -52,6 +61,8 @@ class Tire:
         self._alive = True
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.setInteger([ref.MODEL_VR], [ref.MODELS[model]])
+        if has_friction(model_description):
+            self.fmu.setInteger([fr.FRICTION_VR], [fr.FRICTION_LAWS[friction]])
         if params:
             names = list(params)
             self.fmu.setReal([ref.PARAMETER_VR[n] for n in names], [float(params[n]) for n in names])

@@ -130,14 +130,17 @@ impl GroupInput {
         if norm > 0.0 { dot / norm } else { 0.0 }
     }
 
+    /// In each mode the formulas continue smoothly past the event (a sticking group
+    /// outside its ellipse, a sliding one inside), so that a piece's right-hand side is
+    /// smooth up to the event that ends it.
     fn evaluate_damped(&self, sliding: bool) -> GroupOutput {
         let trial = self.sticking_force();
         let utilisation = self.utilisation(&trial);
-        if utilisation <= 1.0 {
+        if !sliding {
             return GroupOutput {
                 rate: self.sticking_rate,
                 force: trial,
-                event: if sliding { 1.0 - utilisation } else { utilisation - 1.0 },
+                event: utilisation - 1.0,
             };
         }
         let force = self.closest_point(&trial, utilisation);
@@ -148,12 +151,13 @@ impl GroupInput {
         GroupOutput {
             rate,
             force,
-            event: if sliding { 1.0 - utilisation } else { utilisation - 1.0 },
+            event: 1.0 - utilisation,
         }
     }
 
     /// The point of the ellipse `F_k = T_k / (1 + lambda a_k)`, `a_k = Dw_k / L_k^2`, for a
-    /// trial force `T` outside it (`utilisation > 1`).
+    /// trial force `T` with `utilisation > 0` (outside the ellipse `lambda > 0`; inside, the
+    /// same formula continues with `lambda < 0`).
     pub fn closest_point(&self, trial: &[f64; Direction::COUNT], utilisation: f64) -> [f64; Direction::COUNT] {
         let mut weight = [0.0; Direction::COUNT];
         for k in self.directions() {
@@ -166,10 +170,12 @@ impl GroupInput {
             (Some(k), None) => (utilisation.sqrt() - 1.0) / weight[k],
             (Some(k), Some(j)) if weight[k] == weight[j] => (utilisation.sqrt() - 1.0) / weight[k],
             (None, _) => 0.0,
-            // phi(lambda) = sum (T_k / (L_k (1 + lambda a_k)))^2 - 1 is convex and falls:
-            // Newton from lambda = 0 rises monotonically to the root.
+            // phi(lambda) = sum (T_k / (L_k (1 + lambda a_k)))^2 - 1 is convex and falls.
+            // At lambda0 = (sqrt(u) - 1) / max a it is >= 0, so Newton from there rises
+            // monotonically to the root, with every 1 + lambda a_k > 0.
             _ => {
-                let mut lambda = 0.0_f64;
+                let largest = self.directions().map(|k| weight[k]).fold(0.0, f64::max);
+                let mut lambda = (utilisation.sqrt() - 1.0) / largest;
                 for _ in 0..100 {
                     let (mut phi, mut slope) = (-1.0, 0.0);
                     for k in self.directions() {
@@ -179,7 +185,7 @@ impl GroupInput {
                         slope -= 2.0 * ratio * ratio * weight[k] * shrink;
                     }
                     let next = lambda - phi / slope;
-                    if !(next > lambda) || next - lambda <= 1e-16 * next {
+                    if !(next > lambda) || next - lambda <= 1e-16 * next.abs() {
                         lambda = next.max(lambda);
                         break;
                     }
