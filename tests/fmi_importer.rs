@@ -18,7 +18,10 @@ use tirelag::physics::{Input, ModelKind, Output, Parameters, Tire};
 
 const STEP_SIZE: f64 = 0.01;
 const STEPS: usize = 200;
-const RELATIVE_TOLERANCE: f64 = 1e-12;
+/// The packed binary and this test's build of the core are two compilations of the same
+/// code: with the default Brush law the adaptive sliding integration can round
+/// differently between them, far below its 1e-12 accuracy per substep.
+const RELATIVE_TOLERANCE: f64 = 1e-10;
 
 const MODEL: (&str, u32) = ("tireModel", 100);
 /// The real inputs this test drives, with their value references and physics inputs.

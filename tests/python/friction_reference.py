@@ -72,7 +72,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import DOP853
+from scipy.optimize import brentq
 
 import reference as ref
 
@@ -145,80 +146,92 @@ def steady_force_fraction(x, law="Brush"):
 
 
 # --------------------------------------------------------------------------- friction pieces
+#
+# Each function works on numpy arrays of any (matching) shape: one entry per branch and
+# per time point. "k" is a branch stiffness w_i C, "d" a branch damping w_i D, "L" a branch
+# limit phi_i Fmax.
 
-def ellipse_value(Fx, Fy, Lx, Ly):
-    """f = (Fx/Lx)^2 + (Fy/Ly)^2 (1 on the ellipse)."""
-    return (Fx / Lx) ** 2 + (Fy / Ly) ** 2
-
-
-def spring_slide_multiplier(F, L, wC, g):
-    """lambda of the associated flow of a sliding spring group (one entry per direction):
-    n = F/L^2, lambda = sum n wC g / sum n wC n (lambda > 0: the motion pushes the force
-    outward, the group slides; <= 0: it sticks again)."""
-    n = [Fk / Lk ** 2 for Fk, Lk in zip(F, L)]
-    num = sum(nk * ck * gk for nk, ck, gk in zip(n, wC, g))
-    den = sum(nk * ck * nk for nk, ck in zip(n, wC))
-    return num / den, n
+def ellipse_value(Fy, Fx, Ly, Lx):
+    """f = (Fy/Ly)^2 + (Fx/Lx)^2: 1 on the friction ellipse."""
+    return (Fy / Ly) ** 2 + (Fx / Lx) ** 2
 
 
-def spring_slide_rate(F, L, wC, g):
-    """db/dt of a sliding spring group: g - lambda n (force kept on the ellipse)."""
-    lam, n = spring_slide_multiplier(F, L, wC, g)
-    return [gk - lam * nk for gk, nk in zip(g, n)]
+def spring_slide_multiplier(Fy, Fx, Ly, Lx, ky, kx, gy, gx):
+    """lambda of the associated flow of a sliding spring group: n = F/L^2,
+    lambda = sum n k g / sum n k n. lambda > 0: the motion pushes the force outward (the
+    group slides); lambda <= 0: it would move inward (the group sticks)."""
+    ny, nx = Fy / Ly ** 2, Fx / Lx ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):   # 0/0 for unloaded groups: unused
+        lam = (ny * ky * gy + nx * kx * gx) / (ny * ky * ny + nx * kx * nx)
+    return lam, ny, nx
 
 
-def damped_group_force(T, L, wD):
-    """Force of a damped planar group from its trial force T (one entry per direction):
-    T if inside the ellipse, else F_k = T_k / (1 + lam wD_k / L_k^2) with lam >= 0 such that
-    sum (F_k/L_k)^2 = 1. The equation for lam is convex decreasing; Newton from the lower
-    bound (sqrt(f) - 1)/max(a) converges monotonically."""
-    q = [(Tk / Lk) ** 2 for Tk, Lk in zip(T, L)]
-    f = sum(q)
-    if not f > 1.0:
-        return list(T)
-    a = [wDk / Lk ** 2 for wDk, Lk in zip(wD, L)]
-    lam = (math.sqrt(f) - 1.0) / max(a)
+def spring_slide_rates(Fy, Fx, Ly, Lx, ky, kx, gy, gx):
+    """db/dt of a sliding spring group: g - lambda n, which keeps the force on the ellipse
+    (d/dt sum (F/L)^2 = 2 sum n k (g - lambda n) = 0)."""
+    lam, ny, nx = spring_slide_multiplier(Fy, Fx, Ly, Lx, ky, kx, gy, gx)
+    return gy - lam * ny, gx - lam * nx
+
+
+def damped_group_forces(Ty, Tx, Ly, Lx, dy, dx):
+    """Forces of damped planar groups from their trial forces T = k b + d g: T inside the
+    ellipse; outside, F = T / (1 + lam d / L^2) with lam >= 0 putting F on the ellipse
+    (slip rate lam F/L^2 along the normal, the damper in series takes d times it off T).
+
+    The equation sum q/(1 + lam a)^2 = 1 (q = (T/L)^2, a = d/L^2) is convex and decreasing
+    in lam; Newton from the lower bound (sqrt(f) - 1)/max(a) converges monotonically."""
+    Ty, Tx = np.array(Ty, float), np.array(Tx, float)
+    f = ellipse_value(Ty, Tx, Ly, Lx)
+    out = f > 1.0
+    if not np.any(out):
+        return Ty, Tx
+    Ly, Lx = np.broadcast_to(Ly, Ty.shape)[out], np.broadcast_to(Lx, Ty.shape)[out]
+    dy, dx = np.broadcast_to(dy, Ty.shape)[out], np.broadcast_to(dx, Ty.shape)[out]
+    qy, qx = (Ty[out] / Ly) ** 2, (Tx[out] / Lx) ** 2
+    ay, ax = dy / Ly ** 2, dx / Lx ** 2
+    lam = (np.sqrt(f[out]) - 1.0) / np.maximum(ay, ax)
     for _ in range(100):
-        h = sum(qk / (1.0 + lam * ak) ** 2 for qk, ak in zip(q, a)) - 1.0
-        dh = -2.0 * sum(qk * ak / (1.0 + lam * ak) ** 3 for qk, ak in zip(q, a))
+        sy, sx = 1.0 / (1.0 + lam * ay), 1.0 / (1.0 + lam * ax)
+        h = qy * sy ** 2 + qx * sx ** 2 - 1.0
+        dh = -2.0 * (qy * ay * sy ** 3 + qx * ax * sx ** 3)
         step = -h / dh
-        lam += step
-        if abs(step) <= 1e-16 * lam:
+        lam = lam + step
+        if np.all((np.abs(step) <= 4e-16 * lam) | (np.abs(h) <= 1e-15)):
             break
-    return [Tk / (1.0 + lam * ak) for Tk, ak in zip(T, a)]
+    Fy, Fx = Ty.copy(), Tx.copy()
+    Fy[out] = Ty[out] / (1.0 + lam * ay)
+    Fx[out] = Tx[out] / (1.0 + lam * ax)
+    return Fy, Fx
 
 
-def clamp_moment(T, L):
-    """Scalar damped group (DDT yaw): F = clamp(T, -L, L)."""
-    return min(max(T, -L), L)
+def clamp_moments(T, L):
+    """Scalar damped groups (DDT yaw): F = clamp(T, -L, L)."""
+    return np.clip(T, -L, L)
 
 
-def damped_rate(F, w, C, D, b):
-    """db/dt of a damped branch that carries the force F: (F/w - C b)/D."""
-    return (F / w - C * b) / D
+def damped_rates(F, k, d, b):
+    """db/dt of a damped branch carrying the force F: (F - k b)/d, i.e. (F/w - C b)/D;
+    equal to the stick rate g while F = T."""
+    return (F - k * b) / d
 
 
 # --------------------------------------------------------------------------- the tire
 
-class _Element:
-    """One contact element: its stiffness C and damping D (whole element; branch i takes
-    the fractions w_i), its branch-state slice, and its direction ('y', 'x' or 'psi')."""
-
-    def __init__(self, direction, C, D, start, n):
-        self.direction = direction
-        self.C = C
-        self.D = D
-        self.ix = list(range(start, start + n))
+EPS_F = 1e-12     # a sticking spring group starts sliding at f = 1 + EPS_F (then put on f = 1)
+GRID = 16         # sign checks of the switch indicators per DOP853 step (dense output)
 
 
 class FrictionReferenceTire:
     """The friction reference behind the conftest.Tire interface (set, set_rates, step,
     outputs, get, run), so harness.wheel_cosim can drive it.
 
-    State z = [non-element states..., lateral branches, longitudinal branches, yaw branches]
-    with non-element states: SecondOrder [eta, w], RingBody [eta, w, xr, wx], else none.
-    Inputs are held over each step (vy, steerRate and vsx may be ramped with set_rates;
-    vx and Fz are held).
+    State z = [non-element states, lateral branches b_y (nb), longitudinal b_x (nb),
+    yaw b_psi (nb, DDT only)], non-element states SecondOrder [eta, w], RingBody
+    [eta, w, xr, wx]. vy, steerRate and vsx may be ramped with set_rates; vx and Fz are held.
+
+    Switches are found by the sign of one indicator per group, evaluated on the dense
+    output of every DOP853 step at GRID points, and located by brentq; the integration is
+    restarted there with the new mode.
     """
 
     def __init__(self, model="DDT", friction="Brush", params=None, vx=0.0, vy=0.0,
@@ -227,39 +240,41 @@ class FrictionReferenceTire:
             raise ValueError(model)
         self.model = model
         self.friction = friction
-        self.branches = BRANCHES[friction]
-        self.p = parameters(**(params or {}))
-        self.q = ref.derived(self.p)
+        self.limited = friction != "Unlimited"
+        branches = np.array(BRANCHES[friction], float)
+        self.w = branches[:, 0:1]            # column vectors: broadcast over time points
+        self.phi = branches[:, 1:2]
+        nb = len(branches)
+        self.nb = nb
+        self.p = p = parameters(**(params or {}))
+        self.q = q = ref.derived(p)
         self.inputs = {"vx": float(vx), "vy": float(vy), "steerRate": float(steerRate),
-                       "vsx": float(vsx), "Fz": float(self.p["Fz0"] if Fz is None else Fz)}
+                       "vsx": float(vsx), "Fz": float(p["Fz0"] if Fz is None else Fz)}
         self.rates = {k: 0.0 for k in ref.DRIVING}
         self.t = 0.0
-        self.n_events = 0        # stick/slide switches (and damped kinks) met so far
-        nb = len(self.branches)
+        self.n_events = 0            # switches met so far (stick/slide; kinks for DDT)
         self.others = {"RLT": [], "DDT": [], "SecondOrder": ["eta", "w"],
                        "RingBody": ["eta", "w", "xr", "wx"]}[model]
         self.io = {name: i for i, name in enumerate(self.others)}
-        start = len(self.others)
-        p, q = self.p, self.q
-        if model == "RLT":
-            spec = [("y", q["C_y"], 0.0), ("x", q["C_x"], 0.0)]
-        elif model == "DDT":
-            spec = [("y", q["C_y"], p["dampingY"]), ("x", q["C_x"], p["dampingX"]),
-                    ("psi", p["stiffnessPsi"], p["dampingPsi"])]
-        elif model == "SecondOrder":
-            spec = [("y", q["kT_y"], 0.0), ("x", q["C_x"], 0.0)]
-        else:
-            spec = [("y", q["kT_y"], 0.0), ("x", q["kT_x"], 0.0)]
-        self.el = {}
-        for direction, C, D in spec:
-            self.el[direction] = _Element(direction, C, D, start, nb)
-            start += nb
+        C = {"RLT": {"y": q["C_y"], "x": q["C_x"]},
+             "DDT": {"y": q["C_y"], "x": q["C_x"], "psi": p["stiffnessPsi"]},
+             "SecondOrder": {"y": q["kT_y"], "x": q["C_x"]},
+             "RingBody": {"y": q["kT_y"], "x": q["kT_x"]}}[model]
+        D = {"y": p["dampingY"], "x": p["dampingX"], "psi": p["dampingPsi"]}
         self.damped = model == "DDT"
-        if self.damped and friction != "Unlimited" and min(e.D for e in self.el.values()) <= 0.0:
+        start = len(self.others)
+        self.sl, self.k, self.d = {}, {}, {}
+        for direction in C:
+            self.sl[direction] = slice(start, start + nb)
+            start += nb
+            self.k[direction] = self.w * C[direction]                         # w_i C
+            self.d[direction] = self.w * D[direction] if self.damped else None  # w_i D
+        if self.damped and self.limited and min(D.values()) <= 0.0:
             raise NotImplementedError("DDT with zero damping under friction")
         self.z = np.zeros(start)
-        self.slide = [False] * nb    # modes of the spring planar groups
-        self.outside = {}            # sides of the damped groups' kinks (see _events)
+        self.slide = np.zeros(nb, bool)      # modes of the spring groups
+        self.outside = np.zeros(nb, bool)    # damped planar groups: trial force outside
+        self.yaw_side = np.zeros(nb, int)    # damped yaw groups: -1, 0 (inside), +1
         self._setup()
 
     # ---------------------------------------------------------------- per-step constants
@@ -270,17 +285,14 @@ class FrictionReferenceTire:
             raise NotImplementedError("lift-off is not modelled by the friction reference")
         rho = abs(self.inputs["vx"])
         f_lat, f_long = ref.length_factors(p, Fz)
-        lengths = {"RLT": {"y": p["sigmaY"] * f_lat, "x": p["sigmaX"] * f_long},
-                   "DDT": {"y": p["sigmaY"] * f_lat, "x": p["sigmaX"] * f_long,
-                           "psi": p["sigmaPsi"] * f_lat},
-                   "SecondOrder": {"y": p["sigmaTread"] * f_lat, "x": p["sigmaX"] * f_long},
+        self.sigma_y, self.sigma_x = p["sigmaY"] * f_lat, p["sigmaX"] * f_long
+        lengths = {"RLT": {"y": self.sigma_y, "x": self.sigma_x},
+                   "DDT": {"y": self.sigma_y, "x": self.sigma_x, "psi": p["sigmaPsi"] * f_lat},
+                   "SecondOrder": {"y": p["sigmaTread"] * f_lat, "x": self.sigma_x},
                    "RingBody": {"y": p["sigmaTread"] * f_lat, "x": p["sigmaTread"] * f_long}}
         self.relax = {d: rho / s for d, s in lengths[self.model].items()}
-        self.sigma_y = p["sigmaY"] * f_lat      # for alphaT, kappaT
-        self.sigma_x = p["sigmaX"] * f_long
         lim = limits(p, Fz)
-        self.L = [{d: phi * lim[d] for d in ("x", "y", "psi")} for _, phi in self.branches]
-        self.limited = self.friction != "Unlimited"
+        self.L = {d: self.phi * lim[d] for d in ("y", "x", "psi")}
         self._key = (self.inputs["vx"], Fz)
 
     # ---------------------------------------------------------------- inputs
@@ -295,231 +307,212 @@ class FrictionReferenceTire:
             self.rates[k] = float(v)
 
     def _u(self, tau):
-        """Driving inputs at time tau into the current step."""
+        """Driving inputs (vy, steerRate, vsx) at time(s) tau into the current step."""
         i, r = self.inputs, self.rates
         return (i["vy"] + r["vy"] * tau, i["steerRate"] + r["steerRate"] * tau,
                 i["vsx"] + r["vsx"] * tau)
 
     # ---------------------------------------------------------------- element kinematics
-    def _U(self, z, direction):
-        e = self.el[direction]
-        return sum(w * z[j] for (w, _), j in zip(self.branches, e.ix))
+    # Z has shape (n_states, m): m time points at once.
+    def _U(self, Z, d):
+        """The model's deflection state sum_i w_i b_i of element d."""
+        return np.sum(self.w * Z[self.sl[d]], axis=0)
 
-    def _drives(self, z, u):
+    def _drives(self, Z, u):
         vy, r, vsx = u
         m = self.model
         if m == "RLT":
             return {"y": vy, "x": vsx}
         if m == "DDT":
-            return {"y": vy + self.inputs["vx"] * self._U(z, "psi"), "x": vsx, "psi": r}
+            return {"y": vy + self.inputs["vx"] * self._U(Z, "psi"), "x": vsx, "psi": r}
         if m == "SecondOrder":
-            return {"y": z[self.io["w"]], "x": vsx}
-        return {"y": z[self.io["w"]], "x": z[self.io["wx"]]}
+            return {"y": Z[self.io["w"]], "x": vsx}
+        return {"y": Z[self.io["w"]], "x": Z[self.io["wx"]]}
 
-    def _stick_rates(self, z, u):
-        """g[d][i] = drive_d - (rho/sigma_d) b_i for every element d and branch i."""
-        drive = self._drives(z, u)
-        return {d: [drive[d] - self.relax[d] * z[j] for j in e.ix] for d, e in self.el.items()}
+    def _stick_rates(self, Z, u):
+        """g[d] = drive_d - (rho/sigma_d) b_i, shape (nb, m)."""
+        drive = self._drives(Z, u)
+        return {d: np.asarray(drive[d]) - self.relax[d] * Z[s] for d, s in self.sl.items()}
 
-    def _forces(self, z, u, g=None):
-        """Branch forces F[d][i] (springs: w C b; damped: the limited trial force)."""
-        F = {d: [w * e.C * z[j] for (w, _), j in zip(self.branches, e.ix)]
-             for d, e in self.el.items()}
-        if not self.damped:
-            return F
-        g = self._stick_rates(z, u) if g is None else g
-        for d, e in self.el.items():
-            for i, (w, _) in enumerate(self.branches):
-                F[d][i] += w * e.D * g[d][i]
-        if self.limited:
-            ex, ey, ep = self.el["x"], self.el["y"], self.el["psi"]
-            for i, (w, _) in enumerate(self.branches):
-                L = self.L[i]
-                Fy, Fx = damped_group_force((F["y"][i], F["x"][i]), (L["y"], L["x"]),
-                                            (w * ey.D, w * ex.D))
-                F["y"][i], F["x"][i] = Fy, Fx
-                F["psi"][i] = clamp_moment(F["psi"][i], L["psi"])
-        return F
+    def _trial_forces(self, Z, g):
+        """Branch forces without the limit: k b (+ d g for the damped elements)."""
+        T = {d: self.k[d] * Z[s] for d, s in self.sl.items()}
+        if self.damped:
+            for d in T:
+                T[d] = T[d] + self.d[d] * g[d]
+        return T
+
+    def _forces(self, Z, u):
+        """Branch forces {d: (nb, m)}: springs k b (their sliders hold b); damped elements
+        the trial force limited by damped_group_forces / clamp_moments."""
+        g = self._stick_rates(Z, u)
+        F = self._trial_forces(Z, g)
+        if self.damped and self.limited:
+            F["y"], F["x"] = damped_group_forces(F["y"], F["x"], self.L["y"], self.L["x"],
+                                                 self.d["y"], self.d["x"])
+            F["psi"] = clamp_moments(F["psi"], self.L["psi"])
+        return F, g
 
     # ---------------------------------------------------------------- right-hand side
     def _rhs(self, tau, z):
+        Z = z[:, None]
         u = self._u(tau)
-        g = self._stick_rates(z, u)
-        dz = np.empty_like(z)
+        F, g = self._forces(Z, u)
+        dZ = np.empty_like(Z)
         if self.damped:
-            F = self._forces(z, u, g)
-            for d, e in self.el.items():
-                for i, ((w, _), j) in enumerate(zip(self.branches, e.ix)):
-                    dz[j] = damped_rate(F[d][i], w, e.C, e.D, z[j])
-            return dz
-        F = self._forces(z, u)
-        ey, ex = self.el["y"], self.el["x"]
-        for i, (w, _) in enumerate(self.branches):
-            gy, gx = g["y"][i], g["x"][i]
-            if self.slide[i]:
-                L = self.L[i]
-                gy, gx = spring_slide_rate((F["y"][i], F["x"][i]), (L["y"], L["x"]),
-                                           (w * ey.C, w * ex.C), (gy, gx))
-            dz[ey.ix[i]] = gy
-            dz[ex.ix[i]] = gx
-        if self.model in ("SecondOrder", "RingBody"):
-            self._contact_mass_rates(z, u, F, dz)
-        return dz
+            for d, s in self.sl.items():
+                dZ[s] = damped_rates(F[d], self.k[d], self.d[d], Z[s])
+            return dZ[:, 0]
+        gy, gx = g["y"], g["x"]
+        if self.limited and self.slide.any():
+            sy, sx = spring_slide_rates(F["y"], F["x"], self.L["y"], self.L["x"],
+                                        self.k["y"], self.k["x"], gy, gx)
+            mode = self.slide[:, None]
+            gy, gx = np.where(mode, sy, gy), np.where(mode, sx, gx)
+        dZ[self.sl["y"]] = gy
+        dZ[self.sl["x"]] = gx
+        if self.others:
+            self._contact_mass_rates(Z, u, F, dZ)
+        return dZ[:, 0]
 
-    def _contact_mass_rates(self, z, u, F, dz):
-        """SPEC 4 contact-mass equations with the tread force sum_i F_i."""
+    def _contact_mass_rates(self, Z, u, F, dZ):
+        """SPEC 4 contact-mass equations, the tread force being sum_i F_i."""
         p, q, io = self.p, self.q, self.io
         vy, _, vsx = u
         mass, damping = ((p["contactMass"], p["carcassDampingY"]) if self.model == "SecondOrder"
                          else (p["ringMass"], p["ringDampingY"]))
-        eta, w = z[io["eta"]], z[io["w"]]
-        dz[io["eta"]] = w - vy
-        dz[io["w"]] = (-sum(F["y"]) - q["k_y"] * eta - damping * (w - vy)) / mass
+        eta, w = Z[io["eta"]], Z[io["w"]]
+        dZ[io["eta"]] = w - vy
+        dZ[io["w"]] = (-F["y"].sum(axis=0) - q["k_y"] * eta - damping * (w - vy)) / mass
         if self.model == "RingBody":
             mx = p["ringInertia"] / p["Re"] ** 2
-            xr, wx = z[io["xr"]], z[io["wx"]]
-            dz[io["xr"]] = wx - vsx
-            dz[io["wx"]] = (-sum(F["x"]) - q["k_x"] * xr - p["ringDampingX"] * (wx - vsx)) / mx
+            xr, wx = Z[io["xr"]], Z[io["wx"]]
+            dZ[io["xr"]] = wx - vsx
+            dZ[io["wx"]] = (-F["x"].sum(axis=0) - q["k_x"] * xr - p["ringDampingX"] * (wx - vsx)) / mx
 
-    # ---------------------------------------------------------------- events
-    def _group_f(self, z, u, i, F=None):
-        """Ellipse value of planar group i (springs: of F; damped: of the trial force)."""
-        if F is None:
-            F = self._trial_forces(z, u)
-        L = self.L[i]
-        return ellipse_value(F["x"][i], F["y"][i], L["x"], L["y"])
-
-    def _trial_forces(self, z, u):
-        """Unlimited branch forces: w C b (+ w D g for damped elements)."""
-        F = {d: [w * e.C * z[j] for (w, _), j in zip(self.branches, e.ix)]
-             for d, e in self.el.items()}
+    # ---------------------------------------------------------------- switches
+    def _indicators(self, tau, Z):
+        """One switch indicator per group, shape (n_groups, m); a switch happens where one
+        rises through 0.
+        Spring group i: sticking f(F) - 1 - EPS_F, sliding -lambda.
+        Damped (DDT): planar group i: +-(f(T) - 1) (sign: side of the kink); yaw group i:
+        |T| - L inside, L - side T outside."""
+        u = self._u(tau)
+        g = self._stick_rates(Z, u)
+        T = self._trial_forces(Z, g)
+        f = ellipse_value(T["y"], T["x"], self.L["y"], self.L["x"])
         if self.damped:
-            g = self._stick_rates(z, u)
-            for d, e in self.el.items():
-                for i, (w, _) in enumerate(self.branches):
-                    F[d][i] += w * e.D * g[d][i]
-        return F
+            planar = np.where(self.outside[:, None], 1.0 - f, f - 1.0)
+            side = self.yaw_side[:, None]
+            L = self.L["psi"]
+            yaw = np.where(side == 0, np.abs(T["psi"]) - L, L - side * T["psi"])
+            return np.vstack([planar, yaw])
+        lam, _, _ = spring_slide_multiplier(T["y"], T["x"], self.L["y"], self.L["x"],
+                                            self.k["y"], self.k["x"], g["y"], g["x"])
+        return np.where(self.slide[:, None], -lam, f - 1.0 - EPS_F)
 
-    def _lambda(self, z, u, i):
-        F = self._trial_forces(z, u)
-        g = self._stick_rates(z, u)
-        w = self.branches[i][0]
-        L = self.L[i]
-        lam, _ = spring_slide_multiplier((F["y"][i], F["x"][i]), (L["y"], L["x"]),
-                                         (w * self.el["y"].C, w * self.el["x"].C),
-                                         (g["y"][i], g["x"][i]))
-        return lam
-
-    def _events(self):
-        """Terminal event functions for the current modes, with their meaning.
-
-        Spring groups: sticking -> f(F) rising through 1 (starts sliding); sliding ->
-        lambda falling through 0 (sticks again). Damped groups (DDT) have no modes, but
-        the integration stops where the trial force crosses the limit (a kink of the
-        right-hand side); `self.outside` records on which side each kink currently is so
-        every event function only looks for the crossing away from that side."""
-        evs, info = [], []
-
-        def add(fun, direction, what):
-            fun.terminal = True
-            fun.direction = direction
-            evs.append(fun)
-            info.append(what)
-
-        for i in range(len(self.branches)):
-            if self.damped:
-                side = self.outside[("xy", i)]
-                add(lambda t, z, i=i: self._group_f(z, self._u(t), i) - 1.0,
-                    -1.0 if side else 1.0, ("xy", i))
-                L = self.L[i]["psi"]
-                side = self.outside[("psi", i)]
-                if side >= 0:
-                    add(lambda t, z, i=i, L=L: self._trial_forces(z, self._u(t))["psi"][i] - L,
-                        -1.0 if side else 1.0, ("psi+", i))
-                if side <= 0:
-                    add(lambda t, z, i=i, L=L: self._trial_forces(z, self._u(t))["psi"][i] + L,
-                        1.0 if side else -1.0, ("psi-", i))
-            elif self.slide[i]:
-                add(lambda t, z, i=i: self._lambda(z, self._u(t), i), -1.0, ("stick", i))
+    def _switch(self, k, tau):
+        """Group k's indicator rose through 0 at tau: change its mode / side."""
+        nb = self.nb
+        if not self.damped:
+            self.slide[k] = not self.slide[k]
+            if self.slide[k]:
+                self._put_on_ellipse(k)
+        elif k < nb:
+            self.outside[k] = not self.outside[k]
+        else:
+            i = k - nb
+            if self.yaw_side[i] == 0:
+                T = self._trial_forces(self.z[:, None], self._stick_rates(self.z[:, None], self._u(tau)))
+                self.yaw_side[i] = 1 if T["psi"][i, 0] > 0.0 else -1
             else:
-                add(lambda t, z, i=i: self._group_f(z, self._u(t), i) - 1.0, 1.0, ("slide", i))
-        return evs, info
+                self.yaw_side[i] = 0
 
-    def _event_happened(self, kind, i):
-        """Switch the mode (spring groups) or the recorded side (damped kinks)."""
-        if kind == "slide":
-            self.slide[i] = True
-            self._put_on_ellipse(i)
-        elif kind == "stick":
-            self.slide[i] = False
-        elif kind == "xy":
-            self.outside[("xy", i)] = not self.outside[("xy", i)]
-        elif kind == "psi+":
-            self.outside[("psi", i)] = 0 if self.outside[("psi", i)] else 1
-        elif kind == "psi-":
-            self.outside[("psi", i)] = 0 if self.outside[("psi", i)] else -1
-
-    # ---------------------------------------------------------------- modes
     def _put_on_ellipse(self, i):
-        """Radially scale spring group i onto its ellipse if it is outside (or, when
-        sliding, anywhere off it)."""
+        """Radially scale spring group i's deflections so that f(F) = 1 exactly."""
         z = self.z
-        f = self._group_f(z, self._u(0.0), i)
+        by, bx = z[self.sl["y"]], z[self.sl["x"]]
+        f = ellipse_value(self.k["y"][i, 0] * by[i], self.k["x"][i, 0] * bx[i],
+                          self.L["y"][i, 0], self.L["x"][i, 0])
         s = 1.0 / math.sqrt(f)
-        for d in ("y", "x"):
-            j = self.el[d].ix[i]
-            z[j] *= s
+        z[self.sl["y"].start + i] *= s
+        z[self.sl["x"].start + i] *= s
 
-    def _decide_modes(self, tau):
+    def _decide_modes(self):
         """At the start of a step (new inputs). Spring groups: outside -> put on the limit;
-        on the ellipse -> slide iff the motion pushes outward (lambda > 0); inside -> stick.
+        on the ellipse -> slide iff the motion pushes outward (lambda > 0); else stick.
         Damped groups: record on which side of each kink the trial force is."""
         if not self.limited:
             return
-        u = self._u(tau)
+        Z = self.z[:, None]
+        u = self._u(0.0)
+        g = self._stick_rates(Z, u)
+        T = self._trial_forces(Z, g)
+        f = ellipse_value(T["y"], T["x"], self.L["y"], self.L["x"])[:, 0]
         if self.damped:
-            T = self._trial_forces(self.z, u)
-            for i in range(len(self.branches)):
-                self.outside[("xy", i)] = self._group_f(self.z, u, i, T) > 1.0
-                L = self.L[i]["psi"]
-                self.outside[("psi", i)] = 1 if T["psi"][i] > L else (-1 if T["psi"][i] < -L else 0)
+            self.outside[:] = f > 1.0
+            t, L = T["psi"][:, 0], self.L["psi"][:, 0]
+            self.yaw_side[:] = np.where(t > L, 1, np.where(t < -L, -1, 0))
             return
-        for i in range(len(self.branches)):
-            f = self._group_f(self.z, u, i)
-            if f > 1.0 + ON_LIMIT:
+        for i in range(self.nb):
+            if f[i] > 1.0 + EPS_F:
                 self._put_on_ellipse(i)
-                f = 1.0
-            self.slide[i] = f >= 1.0 - ON_LIMIT and self._lambda(self.z, u, i) > 0.0
+        Z = self.z[:, None]
+        g = self._stick_rates(Z, u)
+        T = self._trial_forces(Z, g)
+        f = ellipse_value(T["y"], T["x"], self.L["y"], self.L["x"])[:, 0]
+        lam, _, _ = spring_slide_multiplier(T["y"], T["x"], self.L["y"], self.L["x"],
+                                            self.k["y"], self.k["x"], g["y"], g["x"])
+        self.slide[:] = (f >= 1.0 - ON_LIMIT) & (lam[:, 0] > 0.0)
 
     # ---------------------------------------------------------------- stepping
+    def _integrate(self, tau0, h):
+        """Integrate from tau0 towards h in the current modes; stop at the first switch.
+        Returns (tau reached, index of the switching group or None)."""
+        solver = DOP853(self._rhs, tau0, self.z, h, rtol=RTOL, atol=ATOL)
+        prev = self._indicators(tau0, self.z[:, None])[:, 0] if self.limited else None
+        while solver.status == "running":
+            msg = solver.step()
+            if solver.status == "failed":
+                raise RuntimeError(msg)
+            if not self.limited:
+                continue
+            dense = solver.dense_output()
+            ts = np.linspace(solver.t_old, solver.t, GRID + 1)
+            ts[0], ts[-1] = solver.t_old, solver.t
+            ind = self._indicators(ts[1:], dense(ts[1:]))
+            ind = np.column_stack([prev, ind])
+            rises = (ind[:, :-1] <= 0.0) & (ind[:, 1:] > 0.0)
+            if rises.any():
+                c = int(np.nonzero(rises.any(axis=0))[0][0])
+                best = None
+                for k in np.nonzero(rises[:, c])[0]:
+                    root = brentq(lambda t: self._indicators(t, dense(t)[:, None])[k, 0],
+                                  ts[c], ts[c + 1], xtol=1e-300, rtol=4 * np.finfo(float).eps)
+                    if best is None or root < best[0]:
+                        best = (root, int(k))
+                self.z = dense(best[0]).copy()
+                return best[0], best[1]
+            prev = ind[:, -1]
+        self.z = solver.y.copy()
+        return h, None
+
     def step(self, h):
         """Advance by h with the inputs held (vy, steerRate, vsx ramped by their rates)."""
         if (self.inputs["vx"], self.inputs["Fz"]) != self._key:
             self._setup()
-        tau = 0.0
-        self._decide_modes(tau)
-        pieces = 0
+        self._decide_modes()
+        tau, pieces = 0.0, 0
         while tau < h:
             pieces += 1
-            if pieces > 10000:
-                raise RuntimeError("too many stick/slide switches in one step")
-            if self.limited:
-                evs, info = self._events()
-            else:
-                evs, info = [], []
-            sol = solve_ivp(self._rhs, (tau, h), self.z, method="DOP853", rtol=RTOL, atol=ATOL,
-                            events=evs or None)
-            if sol.status < 0:
-                raise RuntimeError(sol.message)
-            self.z = sol.y[:, -1].copy()
-            tau = sol.t[-1] if sol.status == 1 else h
-            if sol.status == 1:
+            if pieces > 100000:
+                raise RuntimeError("too many switches in one step")
+            tau, k = self._integrate(tau, h)
+            if k is not None:
                 self.n_events += 1
-                k = next(k for k, te in enumerate(sol.t_events) if len(te))
-                self._event_happened(*info[k])
-            # sliding spring groups: remove the integration drift off the ellipse
-            for i, sliding in enumerate(self.slide):
-                if sliding and not self.damped:
+                self._switch(k, tau)
+            if not self.damped:
+                for i in np.nonzero(self.slide)[0]:
                     self._put_on_ellipse(i)
         for k in ref.DRIVING:
             self.inputs[k] += h * self.rates[k]
@@ -527,48 +520,49 @@ class FrictionReferenceTire:
 
     # ---------------------------------------------------------------- outputs
     def branch_forces(self):
-        """Branch forces {direction: [F_i]} at the current state and inputs."""
-        return self._forces(self.z, self._u(0.0))
+        """Branch forces {direction: array (nb,)} at the current state and inputs."""
+        if (self.inputs["vx"], self.inputs["Fz"]) != self._key:
+            self._setup()
+        F, _ = self._forces(self.z[:, None], self._u(0.0))
+        return {d: v[:, 0] for d, v in F.items()}
 
     def ellipse_values(self):
-        """(F_x,i / L_x,i)^2 + (F_y,i / L_y,i)^2 of every planar group (<= 1)."""
+        """(F_y,i/L_y,i)^2 + (F_x,i/L_x,i)^2 of every planar group (never above 1)."""
         F = self.branch_forces()
-        return [ellipse_value(F["x"][i], F["y"][i], L["x"], L["y"]) for i, L in enumerate(self.L)]
+        return ellipse_value(F["y"], F["x"], self.L["y"][:, 0], self.L["x"][:, 0])
 
     def outputs(self):
         """All nine outputs (reference.OUTPUTS order) at the current state and inputs."""
         if (self.inputs["vx"], self.inputs["Fz"]) != self._key:
             self._setup()
-        z, u = self.z, self._u(0.0)
+        z = self.z
         p, q, io = self.p, self.q, self.io
-        vy, _, vsx = u
-        F = self._forces(z, u)
-        fy_el, fx_el = sum(F["y"]), sum(F["x"])
-        defl_y, defl_x = self._U(z, "y"), self._U(z, "x")
-        defl_psi = 0.0
-        yaw = 0.0
-        my = None
+        vy, _, vsx = self._u(0.0)
+        F = self.branch_forces()
+        Z = z[:, None]
+        defl_y, defl_x = self._U(Z, "y")[0], self._U(Z, "x")[0]
+        defl_psi, yaw, my = 0.0, 0.0, None
+        fx = -F["x"].sum()
         if self.model in ("RLT", "DDT"):
-            fy, fx = -fy_el, -fx_el
+            fy = -F["y"].sum()
             if self.model == "DDT":
-                yaw = -sum(F["psi"])
-                defl_psi = self._U(z, "psi")
+                yaw = -F["psi"].sum()
+                defl_psi = self._U(Z, "psi")[0]
         else:
             damping = p["carcassDampingY"] if self.model == "SecondOrder" else p["ringDampingY"]
             eta, w = z[io["eta"]], z[io["w"]]
             fy = q["k_y"] * eta + damping * (w - vy)
-            defl_y = defl_y - eta
-            fx = -fx_el
+            defl_y -= eta
             if self.model == "RingBody":
                 xr, wx = z[io["xr"]], z[io["wx"]]
                 my = -p["Re"] * (q["k_x"] * xr + p["ringDampingX"] * (wx - vsx))
-                defl_x = defl_x - xr
+                defl_x -= xr
         if my is None:
             my = -p["Re"] * fx
         y = {"Fx": fx, "Fy": fy, "Mz": yaw - p["trail"] * fy, "My": my,
              "alphaT": -defl_y / self.sigma_y, "kappaT": -defl_x / self.sigma_x,
              "deflX": defl_x, "deflY": defl_y, "deflPsi": defl_psi}
-        return np.array([y[o] for o in ref.OUTPUTS])
+        return np.array([y[o] for o in ref.OUTPUTS], float)
 
     def get(self, *names):
         y = self.outputs()
@@ -603,6 +597,6 @@ def simulate(model, friction, p=None, vx=0.0, U=None, h=0.01, Fz=None, dU=None):
     U = np.atleast_2d(np.asarray(U, dtype=float))
     N = U.shape[0]
     vxs = np.broadcast_to(np.asarray(vx, dtype=float), (N,))
-    tire = FrictionReferenceTire(model, friction, params=p, vx=vxs[0],
-                                 Fz=None if Fz is None else np.broadcast_to(Fz, (N,))[0])
+    fz0 = None if Fz is None else float(np.broadcast_to(Fz, (N,))[0])
+    tire = FrictionReferenceTire(model, friction, params=p, vx=vxs[0], Fz=fz0)
     return tire.run(U, h, dU=dU, vx=vxs, Fz=Fz)

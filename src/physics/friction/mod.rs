@@ -132,20 +132,15 @@ pub type ContactElements = [Option<ContactElement>; Direction::COUNT];
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits(pub [f64; Direction::COUNT]);
 
-/// Below this fraction of the nominal limit a limit counts as this fraction: a zero
-/// friction coefficient holds the forces at zero to 1e-12 of the nominal limit without
-/// dividing by zero.
-const SMALLEST_LIMIT: f64 = 1e-12;
-
 impl Limits {
     /// `mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1))`, never below 0;
-    /// `Fmax = mu(Fz) Fz`; the yaw moment's limit is `boreRadius muY(Fz) Fz`.
+    /// `Fmax = mu(Fz) Fz`; the yaw moment's limit is `boreRadius muY(Fz) Fz`. A zero limit
+    /// makes its direction frictionless: the branch force is zero.
     pub fn at(p: &Parameters, load: f64) -> Self {
         let nominal = p.get(Parameter::NominalLoad);
         let load = load.max(0.0);
         let factor = (1.0 + p.get(Parameter::FrictionLoadSensitivity) * (load / nominal - 1.0)).max(0.0);
-        let floor = |mu: f64, lever: f64| SMALLEST_LIMIT * (mu * nominal * lever).max(f64::MIN_POSITIVE);
-        let limit = |mu: f64, lever: f64| (mu * factor * load * lever).max(floor(mu, lever));
+        let limit = |mu: f64, lever: f64| mu * factor * load * lever;
         let (mu_x, mu_y) = (p.get(Parameter::LongitudinalFriction), p.get(Parameter::LateralFriction));
         let bore = p.get(Parameter::BoreRadius);
         Limits([limit(mu_x, 1.0), limit(mu_y, 1.0), limit(mu_y, bore)])

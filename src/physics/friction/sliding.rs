@@ -28,8 +28,13 @@ fn branch_index(direction: usize, branch: usize) -> usize {
 const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
 /// Relative accuracy of each substep.
 const TOLERANCE: f64 = 1e-12;
-/// An event value above this has crossed; below it, rounding.
+/// An event value above this has crossed; below it, rounding. An event is located where
+/// its value crosses half of this, clear of the rounding noise around zero (a group that
+/// starts on its limit sits at zero).
 const EVENT_TOLERANCE: f64 = 1e-12;
+/// How often a group may change mode at one instant before its events wait for time to
+/// move on (a motion exactly along the limit, where rounding decides).
+const MAX_CHANGES_AT_AN_INSTANT: u32 = 3;
 /// At most this many substeps and events per step (a safeguard: a step takes a handful).
 const MAX_SUBSTEPS: usize = 200_000;
 
@@ -80,13 +85,17 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// One group's branch `i` at model rates `x_rates` (whose element rows hold the
-    /// sticking rate of `U`).
+    /// sticking rate of `U`). A direction with a zero limit is left out: its branch
+    /// deflection stays at zero ([`SlidingStep::prepare`] puts it there).
     pub fn group_input(&self, group: Group, i: usize, x: &StateVector, x_rates: &StateVector, z: &Vector) -> GroupInput {
         let branch = self.friction.branches[i];
         let mut input = GroupInput::default();
         for &direction in group.directions() {
             let d = direction as usize;
             let Some(element) = self.friction.elements[d] else { continue };
+            if self.limits.0[d] <= 0.0 {
+                continue;
+            }
             let k = element.state;
             let relaxation = self.system.a[(k, k)];
             let b = z[branch_index(d, i)];
@@ -225,10 +234,12 @@ impl<'a> SlidingStep<'a> {
         }
     }
 
-    /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses zero.
+    /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
+    /// event tolerance.
     fn crossing(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64, (g, i): (usize, usize), start: f64, end: f64) -> f64 {
+        let level = 0.5 * EVENT_TOLERANCE;
         let (mut lo, mut hi) = (0.0, length);
-        let (mut e_lo, mut e_hi) = (start.min(0.0), end);
+        let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
         let mut side = 0;
         for _ in 0..80 {
             if hi - lo <= 1e-14 * length.max(f64::MIN_POSITIVE) {
@@ -241,7 +252,7 @@ impl<'a> SlidingStep<'a> {
             let Some((z_tau, _)) = self.substep(t, z, tau, modes, scale) else {
                 break;
             };
-            let e = self.events(t + tau, &z_tau, modes)[g][i];
+            let e = self.events(t + tau, &z_tau, modes)[g][i] - level;
             if e > 0.0 {
                 hi = tau;
                 e_hi = e;
@@ -269,6 +280,8 @@ impl<'a> SlidingStep<'a> {
         let scale = self.deflection_scale();
         let mut t = 0.0;
         let mut length = h.min(self.initial_substep());
+        // Mode changes per group and branch at the current instant.
+        let mut changes = [[0_u32; MAX_BRANCHES]; Group::COUNT];
         for _ in 0..MAX_SUBSTEPS {
             if t >= h {
                 break;
@@ -287,8 +300,8 @@ impl<'a> SlidingStep<'a> {
             let mut first: Option<(f64, usize, usize)> = None;
             for g in 0..Group::COUNT {
                 for i in 0..self.friction.branches.len() {
-                    if end_events[g][i] > EVENT_TOLERANCE {
-                        let at = if start_events[g][i] > 0.0 {
+                    if end_events[g][i] > EVENT_TOLERANCE && changes[g][i] < MAX_CHANGES_AT_AN_INSTANT {
+                        let at = if start_events[g][i] > EVENT_TOLERANCE {
                             0.0
                         } else {
                             self.crossing(t, &z, length, &modes, scale, (g, i), start_events[g][i], end_events[g][i])
@@ -303,6 +316,7 @@ impl<'a> SlidingStep<'a> {
                 None => {
                     z = z_end;
                     t += length;
+                    changes = [[0; MAX_BRANCHES]; Group::COUNT];
                     self.hold_on_limits(&mut z, &modes);
                     length *= growth;
                 }
@@ -313,8 +327,13 @@ impl<'a> SlidingStep<'a> {
                         };
                         z = z_at;
                         t += at;
+                        changes = [[0; MAX_BRANCHES]; Group::COUNT];
                     }
+                    // On the limit before and after the change (a spring group that
+                    // stops sliding sticks from the limit, not from just outside it).
+                    self.hold_on_limits(&mut z, &modes);
                     modes[g][i] = !modes[g][i];
+                    changes[g][i] += 1;
                     self.hold_on_limits(&mut z, &modes);
                 }
             }
@@ -371,6 +390,14 @@ impl<'a> SlidingStep<'a> {
     pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
         let mut z = self.pack(x, sliders);
         let mut inside = true;
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if element.is_some() && self.limits.0[d] <= 0.0 {
+                for i in 0..self.friction.branches.len() {
+                    z[branch_index(d, i)] = 0.0;
+                }
+                inside = false;
+            }
+        }
         let states = self.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         for group in self.friction.groups() {
@@ -414,6 +441,15 @@ impl<'a> SlidingStep<'a> {
         let states = self.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut change = [0.0; Direction::COUNT];
+        // A frictionless direction carries no force: its damper's share goes too.
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if let Some(element) = element
+                && self.limits.0[d] <= 0.0
+            {
+                let k = element.state;
+                change[d] -= element.stiffness * states[k] + element.damping * rates[k];
+            }
+        }
         for group in self.friction.groups() {
             for i in 0..self.friction.branches.len() {
                 let input = self.group_input(group, i, &states, &rates, &z);
