@@ -26,7 +26,12 @@ IN_VRS = [INPUT_VR[n] for n in INPUTS]
 OUT_VRS = [OUTPUT_VR[n] for n in OUTPUTS]
 DRIVING_VRS = [INPUT_VR[n] for n in ("vy", "steerRate", "vsx")]
 from reference import MODEL_VR, PARAMETER_VR  # noqa: E402  (one table of value references)
-VR_NAME = {vr: n for n, vr in {**INPUT_VR, **OUTPUT_VR, **PARAMETER_VR, "tireModel": MODEL_VR}.items()}
+FRICTION_VR = 121
+FRICTIONS = {"Unlimited": 1, "Coulomb": 2, "Brush": 3}
+FRICTION_PARAMETER_VR = {"muX": 122, "muY": 123, "muLoadSensitivity": 124, "boreRadius": 125}
+ALL_PARAMETER_VR = {**PARAMETER_VR, **FRICTION_PARAMETER_VR}
+VR_NAME = {vr: n for n, vr in {**INPUT_VR, **OUTPUT_VR, **PARAMETER_VR, **FRICTION_PARAMETER_VR,
+                               "tireModel": MODEL_VR, "friction": FRICTION_VR}.items()}
 
 FMI2_OK, FMI2_WARNING, FMI2_DISCARD, FMI2_ERROR = 0, 1, 2, 3
 
@@ -94,13 +99,17 @@ def new_slave(md, unzipdir, name="tire", log=None, logging_on=False):
     return slave
 
 
-def initialise(slave, model="DDT", params=None, inputs=None, start_time=0.0):
-    """setupExperiment, parameters and model, enter/exit initialisation, then inputs."""
+def initialise(slave, model="DDT", params=None, inputs=None, start_time=0.0, friction=None):
+    """setupExperiment, parameters, model and friction law (None: the FMU's default,
+    Brush), enter/exit initialisation, then inputs."""
     slave.setupExperiment(startTime=start_time)
     if model is not None:
         slave.setInteger([MODEL_VR], [MODELS[model]])
+    if friction is not None:
+        slave.setInteger([FRICTION_VR], [FRICTIONS[friction]])
     if params:
-        slave.setReal([PARAMETER_VR[k] for k in params], [float(v) for v in params.values()])
+        vrs = {**PARAMETER_VR, **FRICTION_PARAMETER_VR}
+        slave.setReal([vrs[k] for k in params], [float(v) for v in params.values()])
     slave.enterInitializationMode()
     slave.exitInitializationMode()
     if inputs:
@@ -123,11 +132,11 @@ def slave_factory(md, unzipdir, prefix):
     """Yields new(model, params, inputs, log, init) -> slave; frees every slave at the end."""
     made = []
 
-    def new(model="DDT", params=None, inputs=None, log=None, init=True):
+    def new(model="DDT", params=None, inputs=None, log=None, init=True, friction=None):
         s = new_slave(md, unzipdir, name=f"{prefix}{len(made)}", log=log)
         made.append(s)
         if init:
-            initialise(s, model, params, inputs)
+            initialise(s, model, params, inputs, friction=friction)
         return s
 
     try:
@@ -213,6 +222,11 @@ def drive(slave, t, seq, start=0, stop=None):
 
 
 # Non-default parameters for the state tests (all consistent for every model).
+# Friction low enough that the state tests' inputs make the elements slide.
+STATE_FRICTION_PARAMS = {"muX": 0.25, "muY": 0.3, "muLoadSensitivity": -0.2, "boreRadius": 0.05}
+# (model, friction law) pairs of the cross-process state test.
+STATE_CASES = [(m, "Unlimited") for m in MODELS] + [(m, law) for m in MODELS for law in ("Coulomb", "Brush")]
+
 STATE_PARAMS = {
     "Calpha": 210000.0, "Ckappa": 330000.0, "sigmaY": 0.8, "sigmaX": 0.4, "Re": 0.55,
     "trail": 0.04, "Fz0": 42000.0, "dampingY": 6000.0, "dampingX": 7000.0, "sigmaPsi": 0.35,

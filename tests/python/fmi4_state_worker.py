@@ -3,14 +3,16 @@
     python fmi4_state_worker.py save OUTDIR   # per model: run, serialize, continue
     python fmi4_state_worker.py load OUTDIR   # per model: fresh instance, restore, continue
 
+For each case <model>-<law> of fmi4_common.STATE_CASES (every model without a friction
+limit, and with Coulomb and Brush friction low enough to slide):
 save: initialise with non-default parameters, drive WARMUP steps of the deterministic
-      sequence, serialize the FMU state to OUTDIR/<model>.state (and the time to
-      <model>.json), then drive CONTINUE more steps and save the outputs to
-      <model>.save.npy.
+      sequence, serialize the FMU state to OUTDIR/<case>.state (and the time to
+      <case>.json), then drive CONTINUE more steps and save the outputs to
+      <case>.save.npy.
 load: a fresh, only-instantiated instance (default parameters, never initialised)
-      deserializes <model>.state, sets it, drives the same CONTINUE steps from the saved
-      time and saves the outputs to <model>.load.npy, plus the parameters and model it
-      reads back to <model>.load.json.
+      deserializes <case>.state, sets it, drives the same CONTINUE steps from the saved
+      time and saves the outputs to <case>.load.npy, plus the parameters, model and
+      friction law it reads back to <case>.load.json.
 """
 
 from __future__ import annotations
@@ -40,17 +42,19 @@ def save(outdir: Path):
     seq = sequence()
     with tempfile.TemporaryDirectory() as tmp:
         unzipdir = fc.extract_fmu(tmp)
-        for model in fc.MODELS:
-            s = fc.new_slave(md, unzipdir, name=f"save-{model}")
-            fc.initialise(s, model, fc.STATE_PARAMS)
+        for model, law in fc.STATE_CASES:
+            case = f"{model}-{law}"
+            s = fc.new_slave(md, unzipdir, name=f"save-{case}")
+            params = fc.STATE_PARAMS if law == "Unlimited" else {**fc.STATE_PARAMS, **fc.STATE_FRICTION_PARAMS}
+            fc.initialise(s, model, params, friction=law)
             _, t = fc.drive(s, 0.0, seq, 0, WARMUP)
             state = s.getFMUstate()
             blob = s.serializeFMUstate(state)
             s.freeFMUstate(state)
-            (outdir / f"{model}.state").write_bytes(blob)
-            (outdir / f"{model}.json").write_text(json.dumps({"t": repr(t)}))
+            (outdir / f"{case}.state").write_bytes(blob)
+            (outdir / f"{case}.json").write_text(json.dumps({"t": repr(t)}))
             Y, _ = fc.drive(s, t, seq, WARMUP, WARMUP + CONTINUE)
-            np.save(outdir / f"{model}.save.npy", Y)
+            np.save(outdir / f"{case}.save.npy", Y)
             fc.close(s)
 
 
@@ -59,21 +63,23 @@ def load(outdir: Path):
     seq = sequence()
     with tempfile.TemporaryDirectory() as tmp:
         unzipdir = fc.extract_fmu(tmp)
-        for model in fc.MODELS:
-            t = float(json.loads((outdir / f"{model}.json").read_text())["t"])
-            blob = (outdir / f"{model}.state").read_bytes()
-            s = fc.new_slave(md, unzipdir, name=f"load-{model}")   # only instantiated
+        for model, law in fc.STATE_CASES:
+            case = f"{model}-{law}"
+            t = float(json.loads((outdir / f"{case}.json").read_text())["t"])
+            blob = (outdir / f"{case}.state").read_bytes()
+            s = fc.new_slave(md, unzipdir, name=f"load-{case}")   # only instantiated
             state = s.deSerializeFMUstate(blob)
             s.setFMUstate(state)
             s.freeFMUstate(state)
             readback = {
                 "model": s.getInteger([fc.MODEL_VR])[0],
+                "friction": s.getInteger([fc.FRICTION_VR])[0],
                 "params": dict(zip(fc.PARAMETER_VR, s.getReal(list(fc.PARAMETER_VR.values())))),
                 "inputs": s.getReal(fc.IN_VRS),
             }
             Y, _ = fc.drive(s, t, seq, WARMUP, WARMUP + CONTINUE)
-            np.save(outdir / f"{model}.load.npy", Y)
-            (outdir / f"{model}.load.json").write_text(json.dumps(readback))
+            np.save(outdir / f"{case}.load.npy", Y)
+            (outdir / f"{case}.load.json").write_text(json.dumps(readback))
             fc.close(s)
 
 

@@ -131,7 +131,7 @@ def test_rejected_multi_value_set_changes_nothing(slaves, log):
 
 # --------------------------------------------------------------------------- unknown references
 
-@pytest.mark.parametrize("vr", [0, 6, 10, 20, 99, 121, 999, 2**31, 2**32 - 1])
+@pytest.mark.parametrize("vr", [0, 6, 10, 20, 99, 126, 999, 2**31, 2**32 - 1])
 def test_unknown_value_reference_is_refused(slaves, log, vr):
     s, twin, t = stepping_pair(slaves, log)
     for call, args in [(s.setReal, ([vr], [1.0])), (s.getReal, ([vr],)),
@@ -170,6 +170,8 @@ OUT_OF_RANGE = [
     ("sigmaPsi", 0.0), ("sigmaTread", 0.0), ("sigmaTread", -0.1), ("Re", 0.0), ("Fz0", 0.0),
     ("stiffnessPsi", -1.0), ("calphaLoadPeak", 0.0), ("calphaLoadPeak", -2.0),
     ("sigmaY", math.nan), ("Calpha", math.inf), ("contactMass", -math.inf),
+    ("muX", -0.1), ("muY", -1.0), ("boreRadius", -0.01), ("muLoadSensitivity", math.nan),
+    ("muY", math.inf),
 ]
 
 
@@ -182,15 +184,16 @@ def test_parameter_out_of_range_is_refused(slaves, log, starts, name, value, pha
     s = slaves(log=log, init=False)
     s.setupExperiment(startTime=0.0)
     s.setInteger([fc.MODEL_VR], [fc.MODELS[model]])
-    s.setReal([fc.PARAMETER_VR[name]], [good[name]])
+    vr = fc.ALL_PARAMETER_VR[name]
+    s.setReal([vr], [good[name]])
     if phase == "initializationMode":
         s.enterInitializationMode()
     log.clear()
-    status, _ = fc.status_of(s.setReal, [fc.PARAMETER_VR[name]], [value])
+    status, _ = fc.status_of(s.setReal, [vr], [value])
     assert_error_logged(log, status, [name], value, f"{name} = {value} in {phase}")
     if phase == "instantiated":
         s.enterInitializationMode()
-    assert s.getReal([fc.PARAMETER_VR[name]]) == [good[name]], "the previous value was not kept"
+    assert s.getReal([vr]) == [good[name]], "the previous value was not kept"
     s.exitInitializationMode()
     Y, _ = fc.drive(s, 0.0, SEQ, 0, 50)
     fresh = slaves(model, good)
@@ -198,14 +201,16 @@ def test_parameter_out_of_range_is_refused(slaves, log, starts, name, value, pha
     assert np.array_equal(Y, Yf)
 
 
-@pytest.mark.parametrize("name", list(fc.PARAMETER_VR))
+@pytest.mark.parametrize("name", list(fc.ALL_PARAMETER_VR))
 def test_fixed_parameter_after_initialisation_is_refused(slaves, log, starts, name):
     s, twin, t = stepping_pair(slaves, log, "RingBody")
-    value = fc.STATE_PARAMS[name] * 1.5
+    vr = fc.ALL_PARAMETER_VR[name]
+    before = s.getReal([vr])
+    value = before[0] * 1.5 + 0.25
     log.clear()
-    status, _ = fc.status_of(s.setReal, [fc.PARAMETER_VR[name]], [value])
+    status, _ = fc.status_of(s.setReal, [vr], [value])
     assert_error_logged(log, status, [name], value, f"{name} = {value} after initialisation")
-    assert s.getReal([fc.PARAMETER_VR[name]]) == [fc.STATE_PARAMS[name]]
+    assert s.getReal([vr]) == before
     assert_unchanged(s, twin, t, f"fixed {name}")
 
 
@@ -238,18 +243,51 @@ def test_tire_model_out_of_range_is_refused(slaves, log, value):
     assert np.array_equal(Y, Yf)
 
 
+@pytest.mark.parametrize("value", [1, 2, 3])
+def test_friction_after_initialisation_is_refused(slaves, log, value):
+    s, twin, t = stepping_pair(slaves, log, "DDT")
+    log.clear()
+    status, _ = fc.status_of(s.setInteger, [fc.FRICTION_VR], [value])
+    assert_error_logged(log, status, ["friction"], float(value), f"friction = {value} after initialisation")
+    assert s.getInteger([fc.FRICTION_VR]) == [fc.FRICTIONS["Brush"]]
+    assert_unchanged(s, twin, t, f"friction = {value}")
+
+
+@pytest.mark.parametrize("value", [0, 4, -1, 99, -(2**31)])
+def test_friction_out_of_range_is_refused(slaves, log, value):
+    s = slaves(log=log, init=False)
+    s.setupExperiment(startTime=0.0)
+    s.setInteger([fc.FRICTION_VR], [fc.FRICTIONS["Coulomb"]])
+    log.clear()
+    status, _ = fc.status_of(s.setInteger, [fc.FRICTION_VR], [value])
+    assert_error_logged(log, status, ["friction"], float(value), f"friction = {value}")
+    s.enterInitializationMode()
+    log.clear()
+    status, _ = fc.status_of(s.setInteger, [fc.FRICTION_VR], [value])
+    assert_error_logged(log, status, ["friction"], float(value), f"friction = {value} in initialisation mode")
+    assert s.getInteger([fc.FRICTION_VR]) == [fc.FRICTIONS["Coulomb"]]
+    s.exitInitializationMode()
+    Y, _ = fc.drive(s, 0.0, SEQ, 0, 40)
+    Yf, _ = fc.drive(slaves("DDT", friction="Coulomb"), 0.0, SEQ, 0, 40)
+    assert np.array_equal(Y, Yf)
+
+
+# (model, parameters, the parameter the error names); the default friction law is Brush.
 INCONSISTENT = [
-    ("SecondOrder", {"sigmaTread": 1.0}),                      # == sigmaY
-    ("SecondOrder", {"sigmaTread": 1.5}),                      # > sigmaY
-    ("SecondOrder", {"sigmaY": 0.08}),                         # sigmaY below sigmaTread 0.1
-    ("RingBody", {"sigmaTread": 1.5}),
-    ("RingBody", {"sigmaTread": 0.6}),                         # < sigmaY 1.0 but >= sigmaX 0.5
-    ("RingBody", {"sigmaX": 0.1}),                             # == sigmaTread
+    ("SecondOrder", {"sigmaTread": 1.0}, "sigmaTread"),        # == sigmaY
+    ("SecondOrder", {"sigmaTread": 1.5}, "sigmaTread"),        # > sigmaY
+    ("SecondOrder", {"sigmaY": 0.08}, "sigmaTread"),           # sigmaY below sigmaTread 0.1
+    ("RingBody", {"sigmaTread": 1.5}, "sigmaTread"),
+    ("RingBody", {"sigmaTread": 0.6}, "sigmaTread"),           # < sigmaY 1.0 but >= sigmaX 0.5
+    ("RingBody", {"sigmaX": 0.1}, "sigmaTread"),               # == sigmaTread
+    # One ellipse, a damped and an undamped direction: the slider law needs both alike.
+    ("DDT", {"dampingX": 0.0}, "dampingX"),
+    ("DDT", {"dampingY": 0.0}, "dampingY"),
 ]
 
 
-@pytest.mark.parametrize("model,params", INCONSISTENT, ids=[f"{m}-{p}" for m, p in INCONSISTENT])
-def test_inconsistent_parameters_fail_exit_initialisation(slaves, log, starts, model, params):
+@pytest.mark.parametrize("model,params,named", INCONSISTENT, ids=[f"{m}-{p}" for m, p, _ in INCONSISTENT])
+def test_inconsistent_parameters_fail_exit_initialisation(slaves, log, starts, model, params, named):
     s = slaves(log=log, init=False)
     s.setupExperiment(startTime=0.0)
     s.setInteger([fc.MODEL_VR], [fc.MODELS[model]])
@@ -257,7 +295,7 @@ def test_inconsistent_parameters_fail_exit_initialisation(slaves, log, starts, m
     s.enterInitializationMode()
     log.clear()
     status, _ = fc.status_of(s.exitInitializationMode)
-    assert_error_logged(log, status, ["sigmaTread"], None, f"{model} with {params}")
+    assert_error_logged(log, status, [named], None, f"{model} with {params}")
     # not initialised: a step is refused
     status, _ = fc.status_of(s.doStep, 0.0, 0.01)
     assert status == fc.FMI2_ERROR

@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from scipy.linalg import expm
@@ -33,8 +35,10 @@ def starts(fmu):
 
 @pytest.fixture
 def slaves(fmu):
+    """Instances of the linear models (friction Unlimited): the derivatives here are
+    checked against the linear model's matrices. test_friction.py checks them with limits."""
     with fc.slave_factory(*fmu, "d") as new:
-        yield new
+        yield functools.partial(new, friction="Unlimited")
 
 
 def warmed_up(slaves, model, vx, n=50, h=0.01):

@@ -143,22 +143,29 @@ def cross_process(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("model", MODELS)
-def test_state_restored_in_another_process_continues_bit_identically(cross_process, slaves, model):
+@pytest.mark.parametrize("model,law", fc.STATE_CASES)
+def test_state_restored_in_another_process_continues_bit_identically(cross_process, slaves, model, law):
+    """With friction the state holds every branch deflection and stick/slide flag."""
     out = cross_process
-    Y_save = np.load(out / f"{model}.save.npy")
-    Y_load = np.load(out / f"{model}.load.npy")
+    case = f"{model}-{law}"
+    Y_save = np.load(out / f"{case}.save.npy")
+    Y_load = np.load(out / f"{case}.load.npy")
     assert Y_save.shape == (worker.CONTINUE, 9)
     assert np.all(np.isfinite(Y_save)) and np.any(Y_save != 0.0)
     diff = np.max(np.abs(Y_save - Y_load))
     assert np.array_equal(Y_save, Y_load), f"second process differs: max |diff| {diff:.3e}"
-    readback = json.loads((out / f"{model}.load.json").read_text())
+    readback = json.loads((out / f"{case}.load.json").read_text())
     assert readback["model"] == fc.MODELS[model]
+    assert readback["friction"] == fc.FRICTIONS[law]
     assert readback["params"] == fc.STATE_PARAMS
+    if law != "Unlimited":
+        # The limits acted: the forces stayed below the linear model's.
+        Y_linear = np.load(out / f"{model}-Unlimited.save.npy")
+        assert np.max(np.abs(Y_save[:, 1])) < 0.9 * np.max(np.abs(Y_linear[:, 1]))
 
     # and a third place: this test process, into an initialised instance of another model
-    t = float(json.loads((out / f"{model}.json").read_text())["t"])
-    blob = (out / f"{model}.state").read_bytes()
+    t = float(json.loads((out / f"{case}.json").read_text())["t"])
+    blob = (out / f"{case}.state").read_bytes()
     s = slaves("RLT" if model != "RLT" else "DDT")
     st = s.deSerializeFMUstate(blob)
     s.setFMUstate(st)
@@ -273,8 +280,9 @@ def test_reset_restores_start_values_time_and_phase(slaves, fmu):
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
     assert s.getInteger([fc.MODEL_VR]) == [int(starts[fc.MODEL_VR])]
-    params = s.getReal(list(fc.PARAMETER_VR.values()))
-    assert params == [float(starts[vr]) for vr in fc.PARAMETER_VR.values()]
+    assert s.getInteger([fc.FRICTION_VR]) == [int(starts[fc.FRICTION_VR])]
+    params = s.getReal(list(fc.ALL_PARAMETER_VR.values()))
+    assert params == [float(starts[vr]) for vr in fc.ALL_PARAMETER_VR.values()]
     inputs = s.getReal(fc.IN_VRS)
     assert inputs == [float(starts.get(vr) or 0.0) for vr in fc.IN_VRS]
     s.exitInitializationMode()

@@ -16,7 +16,7 @@ PARAMETER_UNITS = {
     "stiffnessPsi": "N.m/rad", "dampingPsi": "N.m.s/rad", "contactMass": "kg",
     "carcassDampingY": "N.s/m", "ringMass": "kg", "ringInertia": "kg.m2",
     "ringDampingY": "N.s/m", "ringDampingX": "N.s/m", "sigmaTread": "m",
-    "calphaLoadPeak": "1",
+    "calphaLoadPeak": "1", "muX": "1", "muY": "1", "muLoadSensitivity": "1", "boreRadius": "m",
 }
 
 
@@ -85,19 +85,38 @@ def test_outputs(variables):
         assert v.valueReference == ref.OUTPUT_VR[name]
 
 
+# The friction parameters (SPEC 3, 4c) and their documented defaults.
+FRICTION_PARAMETERS = {"muX": (122, 0.8), "muY": (123, 0.8), "muLoadSensitivity": (124, -0.1),
+                       "boreRadius": (125, 0.1)}
+
+
 def test_parameters(variables):
     for name, unit in PARAMETER_UNITS.items():
         v = variables[name]
         assert v.causality == "parameter" and v.variability == "fixed" and v.type == "Real", name
         assert v.unit == unit, (name, v.unit)
-        assert v.valueReference == ref.PARAMETER_VR[name]
-        assert float(v.start) == ref.DEFAULTS[name], (name, v.start)
+        vr, default = FRICTION_PARAMETERS.get(name) or (ref.PARAMETER_VR[name], ref.DEFAULTS[name])
+        assert v.valueReference == vr
+        assert float(v.start) == default, (name, v.start)
+    # friction coefficients and the bore radius are never negative; the load sensitivity
+    # may be (mu(Fz) is floored at 0)
+    for name in ("muX", "muY", "boreRadius"):
+        assert float(variables[name].min) == 0.0, name
+    assert variables["muLoadSensitivity"].min is None
     # snowblower values where Koo & Tan Table 1 gives them (SPEC 3, 9)
     for name, value in ref.SNOWBLOWER.items():
         assert float(variables[name].start) == value, name
     # sigmaTread below sigmaY and sigmaX (SPEC 3)
     st = float(variables["sigmaTread"].start)
     assert 0 < st < float(variables["sigmaY"].start) and st < float(variables["sigmaX"].start)
+
+
+def test_friction_selector_is_an_integer_every_importer_can_set(model_description, variables):
+    v = variables["friction"]
+    assert (v.type, v.causality, v.variability, v.valueReference) == ("Integer", "parameter", "fixed", 121)
+    assert (int(v.start), int(v.min), int(v.max)) == (3, 1, 3), "Brush by default"
+    assert v.declaredType.name == "TireFriction"
+    assert "1 = Unlimited" in v.description and "2 = Coulomb" in v.description and "3 = Brush" in v.description
 
 
 def test_tire_model_selector_is_an_integer_every_importer_can_set(variables):
@@ -132,7 +151,7 @@ def test_no_variable_is_named_after_a_modelica_keyword(variables):
 
 
 def test_no_other_variables(variables):
-    expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"tireModel"}
+    expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"tireModel", "friction"}
     assert set(variables) == expected
     vrs = [v.valueReference for v in variables.values()]
     assert len(vrs) == len(set(vrs)), "value references must be unique"
@@ -170,6 +189,10 @@ def _true_dependencies():
                 deps[o].add("vx")
             if y_lifted[j] != ys[2.0][j] or abs(y_heavy[j] - ys[2.0][j]) > 1e-12 * abs(ys[2.0][j]):
                 deps[o].add("Fz")
+    # Friction (SPEC 4c): DDT's damped forces depend on the slip velocities directly; where
+    # both directions slide together on the ellipse, each force depends on both.
+    for o in ("Fx", "Fy", "Mz", "My"):
+        deps[o] |= {"vy", "vsx", "Fz"}
     return deps
 
 

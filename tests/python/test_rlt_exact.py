@@ -119,7 +119,7 @@ def test_rlt_through_fmpy_simulate_fmu(fmu_path):
     signals = np.array(rows, dtype=dtype)
     stop = breaks[-1]
     res = simulate_fmu(fmu_path, start_time=0.0, stop_time=stop, output_interval=h,
-                       start_values={"tireModel": 1}, input=signals,
+                       start_values={"tireModel": 1, "friction": 1}, input=signals,
                        output=ref.OUTPUTS, fmi_type="CoSimulation")
     t = res["time"]
     assert t[0] == 0.0 and abs(t[-1] - stop) < 1e-9
