@@ -5,7 +5,7 @@
 //! Layout (little endian): magic `TIRELAG\0`, format version u32, GUID (u32 length +
 //! bytes), phase u8, model u8, friction law u8, time, start time, stop-time flag u8, stop
 //! time, the parameters, inputs and input rates (f64 each), state count u32 and states
-//! (f64 each), slider flag u8 and, if 1, the branch deflections (f64, by direction and
+//! (f64 each), slider flag u8 and, if 1, the branch offsets from their element's state (f64, by direction and
 //! branch) and sliding flags (u8, by group and branch), then an FNV-1a 64 checksum of
 //! everything before it.
 
@@ -65,7 +65,7 @@ impl Snapshot {
         }
         out.push(u8::from(self.sliders.is_some()));
         if let Some(sliders) = &self.sliders {
-            for value in sliders.deflections.iter().flatten() {
+            for value in sliders.offsets.iter().flatten() {
                 out.extend_from_slice(&value.to_le_bytes());
             }
             out.extend(sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
@@ -138,7 +138,7 @@ impl Snapshot {
             0 if friction == FrictionLaw::Unlimited => None,
             1 if friction != FrictionLaw::Unlimited => {
                 let mut sliders = SliderState::AT_REST;
-                for value in sliders.deflections.iter_mut().flatten() {
+                for value in sliders.offsets.iter_mut().flatten() {
                     *value = r.f64()?;
                 }
                 for flag in sliders.sliding.iter_mut().flatten() {
@@ -168,7 +168,7 @@ impl Snapshot {
             .chain(&inputs)
             .chain(&input_rates)
             .chain(&states)
-            .chain(sliders.iter().flat_map(|s| s.deflections.iter().flatten()))
+            .chain(sliders.iter().flat_map(|s| s.offsets.iter().flatten()))
             .all(|v| v.is_finite());
         if !all_finite {
             return Err("the FMU state holds a value that is not finite".into());
@@ -228,7 +228,7 @@ mod tests {
             input_rates: [0.0, 0.5, 0.0, 0.0, 0.0],
             states: vec![1e-3, -2e-3, 0.1, 4e-4, 5e-5, -0.2],
             sliders: Some(SliderState {
-                deflections: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
+                offsets: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
                 sliding: [[true, false, false, true], [false; 4]],
             }),
         }

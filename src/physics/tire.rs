@@ -128,13 +128,13 @@ impl Tire {
     }
 
     /// Replaces the sliders' state (after [`Tire::set_states`], which puts every branch at
-    /// its element's state). The values must be finite.
+    /// its element's state). The offsets must be finite.
     pub fn set_sliders(&mut self, sliders: &SliderState) -> Result<(), String> {
         let Some(friction) = self.friction.as_mut() else {
             return Err("the Unlimited law has no friction sliders".into());
         };
-        if let Some(bad) = sliders.deflections.iter().flatten().find(|v| !v.is_finite()) {
-            return Err(format!("branch deflection {bad} is not finite"));
+        if let Some(bad) = sliders.offsets.iter().flatten().find(|v| !v.is_finite()) {
+            return Err(format!("branch offset {bad} is not finite"));
         }
         friction.state = *sliders;
         self.outputs = None;
@@ -173,7 +173,7 @@ impl Tire {
         }
         self.states.as_mut_slice()[..count].copy_from_slice(states);
         if let Some(friction) = self.friction.as_mut() {
-            friction.reset_to(states);
+            friction.reset();
         }
         self.outputs = None;
         Ok(())
@@ -356,7 +356,7 @@ impl Tire {
         const DT: f64 = 1e-7;
         let mut at = |sign: f64| {
             let mut moved = sliders;
-            for (b, r) in moved.deflections.iter_mut().flatten().zip(branch_rates.deflections.iter().flatten()) {
+            for (b, r) in moved.offsets.iter_mut().flatten().zip(branch_rates.offsets.iter().flatten()) {
                 *b += sign * DT * r;
             }
             let mut moved_inputs = inputs;
@@ -478,71 +478,59 @@ impl Tire {
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
         let mut next_states = map.advance(&self.states, &u0, &du);
-        let mut sliding = false;
-        let next_sliders = match &self.friction {
-            None => None,
-            Some(friction) => {
-                let mut sliders = friction.state;
-                match mode {
-                    ContactMode::LiftedOff => {
-                        // Off the ground every branch relaxes like the states.
-                        let decay = (-h / LIFT_OFF_RELAXATION_TIME).exp();
-                        sliders.deflections.iter_mut().flatten().for_each(|b| *b *= decay);
-                        sliders.sliding = SliderState::AT_REST.sliding;
-                    }
-                    ContactMode::Rolling => {
-                        let step = SlidingStep {
-                            system: system.at(point),
-                            friction,
-                            limits: Limits::at(&self.parameters, load),
-                            inputs: u0,
-                            input_rates: du,
-                        };
-                        let mut start = self.states;
-                        let sticking = if step.prepare(&mut start, &mut sliders) {
-                            step.sticking_step(&start, &next_states, &sliders, h)
-                        } else {
-                            None
-                        };
-                        match sticking {
-                            Some(next) => sliders = next,
-                            None => {
-                                step.integrate(&mut start, &mut sliders, h)
-                                    .map_err(|_| StepError::NotConverged)?;
-                                next_states = start;
-                                sliding = true;
-                            }
-                        }
-                    }
-                }
-                Some(sliders)
-            }
-        };
-        // Held inputs end the step where they started: the outputs there come from the
-        // system already at hand, so compute them now rather than look it up again.
-        // (After a step with sliding the limits shape them: they are computed on demand.)
-        let outputs = (!ramping && !sliding).then(|| system.at(point).outputs(&next_states, &u0));
         let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
+        let mut next_inputs = self.inputs;
         if ramping {
-            let mut next_inputs = self.inputs;
             for (value, rate) in next_inputs.iter_mut().zip(self.input_rates) {
                 *value += h * rate;
             }
-            if !(finite(next_states.as_slice()) && finite(&next_inputs)) {
-                return Err(StepError::NotFinite);
-            }
-            self.inputs = next_inputs;
-        } else if !finite(next_states.as_slice()) {
+        }
+        if !(finite(next_states.as_slice()) && finite(&next_inputs)) {
             return Err(StepError::NotFinite);
         }
+        // Friction: the sticking check commits the branches only if the step stands; a
+        // step with sliding works on copies until it has succeeded.
+        let mut sliding = false;
+        if let Some(friction) = self.friction.as_mut() {
+            match mode {
+                ContactMode::LiftedOff => friction.lift_off(h / LIFT_OFF_RELAXATION_TIME),
+                ContactMode::Rolling => {
+                    let limits = Limits::at(&self.parameters, load);
+                    system.at(point);
+                    let (state_space, map) = system.current_and_step_map();
+                    let ends = (&self.states, &next_states);
+                    if !friction.sticking_step(state_space, &map.transition, &limits, ends, (&u0, &du), h) {
+                        let mut sliders = friction.state;
+                        let mut start = self.states;
+                        let step = SlidingStep {
+                            system: state_space,
+                            friction,
+                            limits,
+                            inputs: u0,
+                            input_rates: du,
+                        };
+                        step.prepare(&mut start, &mut sliders);
+                        step.integrate(&mut start, &mut sliders, h)
+                            .map_err(|_| StepError::NotConverged)?;
+                        if !finite(start.as_slice()) {
+                            return Err(StepError::NotFinite);
+                        }
+                        next_states = start;
+                        friction.state = sliders;
+                        sliding = true;
+                    }
+                }
+            }
+        }
+        // Held inputs end the step where they started: the outputs there come from the
+        // system already at hand, so compute them now rather than look it up again.
+        // (After a step with sliding the limits shape them: they are computed on demand.)
+        self.outputs = (!ramping && !sliding).then(|| system.at(point).outputs(&next_states, &u0));
         if !fresh {
             self.step_made_for = Some(made_for);
         }
         self.states = next_states;
-        self.outputs = outputs;
-        if let (Some(friction), Some(sliders)) = (self.friction.as_mut(), next_sliders) {
-            friction.state = sliders;
-        }
+        self.inputs = next_inputs;
         Ok(())
     }
 
@@ -554,7 +542,9 @@ impl Tire {
             for (d, element) in friction.elements.iter().enumerate() {
                 let Some(element) = element else { continue };
                 energy -= 0.5 * element.stiffness * self.states[element.state].powi(2);
-                for (branch, b) in friction.branches.iter().zip(&friction.state.deflections[d]) {
+                let u = self.states[element.state];
+                for (branch, offset) in friction.branches.iter().zip(&friction.state.offsets[d]) {
+                    let b = u + offset;
                     energy += 0.5 * branch.stiffness_fraction * element.stiffness * b * b;
                 }
             }

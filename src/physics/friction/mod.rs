@@ -27,6 +27,7 @@ pub mod sliding;
 use super::brush::{BRUSH_BRANCHES, Branch};
 use super::parameters::{Parameter, Parameters};
 use super::signals::Output;
+use super::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
 
 /// The friction law; the values are those of the FMI type `TireFriction`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -147,18 +148,28 @@ impl Limits {
     }
 }
 
+/// What the sticking check needs of an element.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct PresentElement {
+    direction: usize,
+    state: usize,
+    stiffness: f64,
+    damping: f64,
+}
+
 /// Each branch's deflection and whether its groups slide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SliderState {
-    /// `b_i` by [`Direction`] and branch, in the unit of the element's state.
-    pub deflections: [[f64; MAX_BRANCHES]; Direction::COUNT],
+    /// `b_i - U` by [`Direction`] and branch, in the unit of the element's state `U`: zero
+    /// until a branch slides (always, for one branch), and relaxing while all stick.
+    pub offsets: [[f64; MAX_BRANCHES]; Direction::COUNT],
     /// By [`Group`] and branch.
     pub sliding: [[bool; MAX_BRANCHES]; Group::COUNT],
 }
 
 impl SliderState {
     pub const AT_REST: SliderState = SliderState {
-        deflections: [[0.0; MAX_BRANCHES]; Direction::COUNT],
+        offsets: [[0.0; MAX_BRANCHES]; Direction::COUNT],
         sliding: [[false; MAX_BRANCHES]; Group::COUNT],
     };
 
@@ -172,6 +183,16 @@ impl SliderState {
 pub struct Friction {
     pub law: FrictionLaw,
     pub branches: &'static [Branch],
+    /// One over the smallest `phi_i / w_i` (below that fraction of the limit every
+    /// branch sticks).
+    inverse_first_breakpoint: f64,
+    /// Which directions each [`Group`] of this model has.
+    group_members: [[bool; Direction::COUNT]; Group::COUNT],
+    /// The elements the model has, with their directions (the first `present_count`).
+    present: [PresentElement; Direction::COUNT],
+    present_count: usize,
+    /// Whether any element has a damper.
+    damped: bool,
     pub elements: ContactElements,
     pub state: SliderState,
 }
@@ -182,6 +203,31 @@ impl Friction {
         (law != FrictionLaw::Unlimited).then(|| Friction {
             law,
             branches: law.branches(),
+            inverse_first_breakpoint: 1.0 / law.branches().iter().map(Branch::breakpoint).fold(f64::INFINITY, f64::min),
+            present: {
+                let mut present = [PresentElement::default(); Direction::COUNT];
+                for (slot, (d, e)) in present
+                    .iter_mut()
+                    .zip(elements.iter().enumerate().filter_map(|(d, e)| e.map(|e| (d, e))))
+                {
+                    *slot = PresentElement {
+                        direction: d,
+                        state: e.state,
+                        stiffness: e.stiffness,
+                        damping: e.damping,
+                    };
+                }
+                present
+            },
+            present_count: elements.iter().flatten().count(),
+            damped: elements.iter().flatten().any(|e| e.damping > 0.0),
+            group_members: Group::ALL.map(|g| {
+                let mut members = [false; Direction::COUNT];
+                for &d in g.directions() {
+                    members[d as usize] = elements[d as usize].is_some();
+                }
+                members
+            }),
             elements,
             state: SliderState::AT_REST,
         })
@@ -194,27 +240,136 @@ impl Friction {
             .filter(|g| g.directions().iter().any(|&d| self.elements[d as usize].is_some()))
     }
 
-    /// Sets every branch deflection of each element to the element's state (at rest, or
-    /// after states were set from outside), all sticking.
-    pub fn reset_to(&mut self, states: &[f64]) {
+    /// Puts every branch at its element's state (at rest, or after states were set from
+    /// outside), all sticking.
+    pub fn reset(&mut self) {
         self.state = SliderState::AT_REST;
-        for (d, element) in self.elements.iter().enumerate() {
-            if let Some(element) = element {
-                for i in 0..self.branches.len() {
-                    self.state.deflections[d][i] = states[element.state];
-                }
-            }
-        }
     }
 
-    /// The stiffness-weighted deflection `U = sum w_i b_i` of an element.
-    pub fn weighted_deflection(&self, direction: usize) -> f64 {
-        self.branches
-            .iter()
-            .zip(&self.state.deflections[direction])
-            .map(|(branch, b)| branch.stiffness_fraction * b)
-            .sum()
+    /// Off the ground for `relaxation_times` lift-off relaxation times: the offsets
+    /// relax like the states, and every group sticks.
+    pub fn lift_off(&mut self, relaxation_times: f64) {
+        let decay = (-relaxation_times).exp();
+        self.state.offsets.iter_mut().flatten().for_each(|o| *o *= decay);
+        self.state.sliding = SliderState::AT_REST.sliding;
     }
+
+    /// After an exact linear step from `start` to `end` (`transition` its map) while
+    /// every group sticks: if no branch force can have reached its limit within the step
+    /// ([`force_bound`]), moves the branch offsets to the end of the step (each `b_i - U`
+    /// decays with its element's relaxation) and returns true; otherwise (or if a group
+    /// slides) changes nothing and returns false.
+    ///
+    /// This is what friction adds to a step while the tire sticks: two dot products per
+    /// element, and work per branch only while the branches differ (after sliding).
+    pub fn sticking_step(
+        &mut self,
+        system: &StateSpace,
+        transition: &StateMatrix,
+        limits: &Limits,
+        (start, end): (&StateVector, &StateVector),
+        (inputs, input_rates): (&DrivingVector, &DrivingVector),
+        h: f64,
+    ) -> bool {
+        if self.state.any_sliding() {
+            return false;
+        }
+        let n = system.states;
+        let u0 = [inputs[0], inputs[1], inputs[2]];
+        let du = [input_rates[0], input_rates[1], input_rates[2]];
+        let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        // Row k of A x + B u; states past n are zero.
+        let rate = |x: &[f64; MAX_STATES], u: &[f64; 3], k: usize| {
+            let mut rate = system.b[(k, 0)] * u[0] + system.b[(k, 1)] * u[1] + system.b[(k, 2)] * u[2];
+            for (j, xj) in x.iter().enumerate() {
+                rate += system.a[(k, j)] * xj;
+            }
+            rate
+        };
+        let (x0, x1): (&[f64; MAX_STATES], &[f64; MAX_STATES]) = (&start.data.0[0], &end.data.0[0]);
+        // The damped elements' forces need every state's rate.
+        let (mut rates0, mut rates1) = ([0.0; MAX_STATES], [0.0; MAX_STATES]);
+        if self.damped {
+            for k in 0..n {
+                rates0[k] = rate(x0, &u0, k);
+                rates1[k] = rate(x1, &u1, k);
+            }
+        }
+        let mut offsets = self.state.offsets;
+        let mut offsets_moved = false;
+        // Per direction: a bound on max_i |F_i| / phi_i over the step, F_i the force of
+        // branch i. Branch i holds if sum_d (F_i,d / (phi_i L_d))^2 < 1.
+        let mut scaled_bound = [0.0; Direction::COUNT];
+        for element in &self.present[..self.present_count] {
+            let (d, k) = (element.direction, element.state);
+            let (stiffness, damping) = (element.stiffness, element.damping);
+            // The element force C U + D dU/dt and its rate, at both ends.
+            let (f0, r0, f1, r1) = if damping > 0.0 {
+                (
+                    stiffness * x0[k] + damping * rates0[k],
+                    stiffness * rates0[k] + damping * rate(&rates0, &du, k),
+                    stiffness * x1[k] + damping * rates1[k],
+                    stiffness * rates1[k] + damping * rate(&rates1, &du, k),
+                )
+            } else {
+                (stiffness * x0[k], stiffness * rate(x0, &u0, k), stiffness * x1[k], stiffness * rate(x1, &u1, k))
+            };
+            let branch_offsets = &mut offsets[d][..self.branches.len()];
+            if branch_offsets.iter().all(|&o| o == 0.0) {
+                // Every branch carries w_i of the element force; the largest w_i / phi_i
+                // is that of the first breakpoint.
+                scaled_bound[d] = force_bound(f0, f1, r0, r1, h) * self.inverse_first_breakpoint;
+                continue;
+            }
+            // Branches differ by offsets that relax at the element's rate.
+            offsets_moved = true;
+            let relaxation = system.a[(k, k)];
+            let decay = if decoupled(system, k) { transition[(k, k)] } else { (relaxation * h).exp() };
+            let offset_force = stiffness + damping * relaxation;
+            // An offset far below the rounding of the limit deflection is gone.
+            let negligible = 1e-15 * limits.0[d] / stiffness;
+            for (offset, branch) in branch_offsets.iter_mut().zip(self.branches) {
+                let (offset0, offset1) = (*offset, *offset * decay);
+                let bound = force_bound(
+                    f0 + offset_force * offset0,
+                    f1 + offset_force * offset1,
+                    r0 + offset_force * relaxation * offset0,
+                    r1 + offset_force * relaxation * offset1,
+                    h,
+                );
+                let scaled = bound / branch.breakpoint();
+                if scaled > scaled_bound[d] {
+                    scaled_bound[d] = scaled;
+                }
+                *offset = if offset1.abs() <= negligible { 0.0 } else { offset1 };
+            }
+        }
+        for directions in &self.group_members {
+            let mut utilisation = 0.0;
+            for (d, &member) in directions.iter().enumerate() {
+                if member {
+                    let ratio = scaled_bound[d] / limits.0[d];
+                    utilisation += ratio * ratio;
+                }
+            }
+            // Also false for NaN (a zero limit).
+            if !(utilisation < 1.0) {
+                return false;
+            }
+        }
+        if offsets_moved {
+            self.state.offsets = offsets;
+        }
+        true
+    }
+}
+
+/// Whether state `k` neither drives nor is driven by the other states: then the step
+/// map's diagonal entry is `e^(A_kk h)`, the decay of a branch offset. (Block-triangular is
+/// enough: a zero row or column off the diagonal.)
+fn decoupled(system: &StateSpace, k: usize) -> bool {
+    let n = system.states;
+    (0..n).all(|j| j == k || system.a[(k, j)] == 0.0) || (0..n).all(|j| j == k || system.a[(j, k)] == 0.0)
 }
 
 /// A bound on a force over a step from its values and rates at both ends. The cubic

@@ -59,12 +59,27 @@ impl<'a> SlidingStep<'a> {
     fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
         let mut z = [0.0; SIZE];
         z[..MAX_STATES].copy_from_slice(x.as_slice());
-        for d in 0..Direction::COUNT {
-            for i in 0..self.friction.branches.len() {
-                z[branch_index(d, i)] = sliders.deflections[d][i];
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if let Some(element) = element {
+                for i in 0..self.friction.branches.len() {
+                    z[branch_index(d, i)] = x[element.state] + sliders.offsets[d][i];
+                }
             }
         }
         z
+    }
+
+    /// The model's states and the branch offsets of `z`.
+    fn unpack(&self, z: &Vector, sliders: &mut SliderState) -> StateVector {
+        let x = self.model_states(z);
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if let Some(element) = element {
+                for i in 0..self.friction.branches.len() {
+                    sliders.offsets[d][i] = z[branch_index(d, i)] - x[element.state];
+                }
+            }
+        }
+        x
     }
 
     /// The model's states with each element's state the weighted sum of its branches.
@@ -341,12 +356,7 @@ impl<'a> SlidingStep<'a> {
         if t < h {
             return Err(NotConverged);
         }
-        *x = self.model_states(&z);
-        for d in 0..Direction::COUNT {
-            for i in 0..self.friction.branches.len() {
-                sliders.deflections[d][i] = z[branch_index(d, i)];
-            }
-        }
+        *x = self.unpack(&z, sliders);
         sliders.sliding = modes;
         Ok(())
     }
@@ -424,12 +434,7 @@ impl<'a> SlidingStep<'a> {
                 sliders.sliding[group as usize][i] = sliding;
             }
         }
-        *x = self.model_states(&z);
-        for d in 0..Direction::COUNT {
-            for i in 0..self.friction.branches.len() {
-                sliders.deflections[d][i] = z[branch_index(d, i)];
-            }
-        }
+        *x = self.unpack(&z, sliders);
         inside
     }
 
@@ -469,79 +474,13 @@ impl<'a> SlidingStep<'a> {
         change
     }
 
-    /// The rates of the model's states and of the branches at these states (the state
-    /// rates with the limits acting).
+    /// The rates of the model's states and of the branch offsets at these states (the
+    /// state rates with the limits acting).
     pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
         let z = self.pack(x, sliders);
         let (rates, _) = self.rates(0.0, &z, &sliders.sliding);
-        let mut branch_rates = SliderState::AT_REST;
-        for d in 0..Direction::COUNT {
-            for i in 0..self.friction.branches.len() {
-                branch_rates.deflections[d][i] = rates[branch_index(d, i)];
-            }
-        }
-        (StateVector::from_column_slice(&rates[..MAX_STATES]), branch_rates)
-    }
-}
-
-impl<'a> SlidingStep<'a> {
-    /// After an exact linear step from `start` to `end` with every group sticking: the
-    /// branches at the end (each `b_i - U` decays with its element's relaxation), if no
-    /// branch force can have reached its limit within the step ([`super::force_bound`]);
-    /// `None` if one may have.
-    pub fn sticking_step(&self, start: &StateVector, end: &StateVector, sliders: &SliderState, h: f64) -> Option<SliderState> {
-        let end_inputs = self.inputs + self.input_rates * h;
-        let start_rates = self.system.state_rates(start, &self.inputs);
-        let end_rates = self.system.state_rates(end, &end_inputs);
-        let branches = self.friction.branches;
-        let mut next = *sliders;
-        let mut bound = [[0.0; MAX_BRANCHES]; Direction::COUNT];
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            let Some(element) = element else { continue };
-            let k = element.state;
-            let relaxation = self.system.a[(k, k)];
-            let (stiffness, damping) = (element.stiffness, element.damping);
-            // The element force C U + D dU/dt and its rate, at both ends.
-            let force_and_rate = |x: &StateVector, rates: &StateVector| {
-                let mut rate = stiffness * rates[k];
-                if damping > 0.0 {
-                    let acceleration = (self.system.a.row(k) * rates)[0] + (self.system.b.row(k) * self.input_rates)[0];
-                    rate += damping * acceleration;
-                }
-                (stiffness * x[k] + damping * rates[k], rate)
-            };
-            let (f0, r0) = force_and_rate(start, &start_rates);
-            let (f1, r1) = force_and_rate(end, &end_rates);
-            // A branch differs from U by an offset that relaxes at the element's rate.
-            let offsets = &sliders.deflections[d][..branches.len()];
-            let decay = if offsets.iter().any(|&b| b != start[k]) { (relaxation * h).exp() } else { 1.0 };
-            let offset_force = stiffness + damping * relaxation;
-            for (i, branch) in branches.iter().enumerate() {
-                let w = branch.stiffness_fraction;
-                let (offset0, offset1) = (offsets[i] - start[k], (offsets[i] - start[k]) * decay);
-                bound[d][i] = super::force_bound(
-                    w * (f0 + offset_force * offset0),
-                    w * (f1 + offset_force * offset1),
-                    w * (r0 + offset_force * relaxation * offset0),
-                    w * (r1 + offset_force * relaxation * offset1),
-                    h,
-                );
-                next.deflections[d][i] = end[k] + offset1;
-            }
-        }
-        for group in self.friction.groups() {
-            for (i, branch) in branches.iter().enumerate() {
-                let utilisation: f64 = group
-                    .directions()
-                    .iter()
-                    .filter(|&&d| self.friction.elements[d as usize].is_some())
-                    .map(|&d| (bound[d as usize][i] / (branch.limit_fraction * self.limits.0[d as usize])).powi(2))
-                    .sum();
-                if !(utilisation < 1.0) {
-                    return None;
-                }
-            }
-        }
-        Some(next)
+        let mut offset_rates = SliderState::AT_REST;
+        self.unpack(&rates, &mut offset_rates);
+        (StateVector::from_column_slice(&rates[..MAX_STATES]), offset_rates)
     }
 }

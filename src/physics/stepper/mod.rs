@@ -223,6 +223,7 @@ impl ContactSystem {
 
     /// The system at `point`; only its varying entries are rewritten, and only when the
     /// point changed.
+    #[inline]
     pub fn at(&mut self, point: OperatingPoint) -> &StateSpace {
         if !point.same_as(&self.current_point) {
             self.affine.evaluate(point, &mut self.current);
@@ -241,5 +242,11 @@ impl ContactSystem {
     /// The step map last made.
     pub fn step_map(&self) -> &StepMap {
         &self.map
+    }
+
+    /// The system at the point last asked for ([`ContactSystem::at`]) and the step map
+    /// last made.
+    pub fn current_and_step_map(&self) -> (&StateSpace, &StepMap) {
+        (&self.current, &self.map)
     }
 }
