@@ -1,8 +1,12 @@
 """Independent reference for the friction limit of SPEC section 4c (stick and slide).
 
-Written from the SPEC text (sections 3, 4, 4b, 4c) and the friction semantics made precise
-in the task brief; the only numbers taken from the Rust source are the Brush branch
-fractions (src/physics/brush.rs BRUSH_BRANCHES, derived by scripts/brush_fit.py).
+Written from the SPEC text (sections 3, 4, 4b, 4c) and the friction semantics agreed for
+the implementation (spelled out below), not from the Rust code; the only numbers taken
+from the Rust source are the Brush branch fractions (src/physics/brush.rs BRUSH_BRANCHES,
+derived by scripts/brush_fit.py).
+
+Use: FrictionReferenceTire (the conftest.Tire interface: set, set_rates, step, outputs,
+run) or simulate(model, friction, params, vx, U, h, Fz) (like reference.simulate).
 
 The model
 ---------
@@ -38,7 +42,7 @@ branch i of DDT's yaw element is a scalar group, |M_i| <= phi_i M_max.
   lambda = sum n_k w C_k g_k / sum n_k w C_k n_k, so the force stays on the ellipse; the
   group sticks again when lambda falls to 0. The right-hand side is discontinuous across
   the ellipse, so these groups carry a mode (stick/slide) and the integration stops at
-  every switch (events: f(F) = 1 while sticking, lambda = 0 while sliding).
+  every switch (f(F) reaching 1 while sticking, lambda reaching 0 while sliding).
 * Spring-dampers (DDT). Trial force T_k = w_i (C_k b_k + D_k g_k). Inside the ellipse:
   stick (F = T, db/dt = g). Outside: F_k = T_k / (1 + lam w_i D_k / L_k^2) with lam >= 0
   putting F on the ellipse, and db_k/dt = (F_k / w_i - C_k b_k) / D_k. The right-hand side
@@ -55,13 +59,20 @@ states replaced by U and, for DDT, the element forces by the (limited) branch fo
 `Unlimited` is the linear model (one branch, no limit); it must agree with
 reference.simulate, which this module's self-checks use.
 
-Numerics: scipy solve_ivp, DOP853, rtol 1e-12, with terminal events at every stick/slide
-switch (and at the kinks of the damped groups), so every piece is integrated on a smooth
-right-hand side. A sliding spring group is put back exactly on its ellipse (radial scaling
-of its deflections, a change of the order of the integration tolerance) at the end of every
-piece. If Fz changes so that a spring group is outside its new limit, it is put on the limit
-by the same radial scaling (the SPEC's "its force is put on the limit"; the tests here hold
-Fz constant, so this choice is not exercised by them).
+Numerics: scipy's DOP853 stepper (rtol 1e-12) driven step by step. Every group has a switch
+indicator (sticking spring group: f(F) - 1 - 1e-12; sliding: -lambda; damped kinks: the
+signed distance of f(T) or |T| from the limit) whose rise through 0 is looked for at 16
+points of the dense output of every DOP853 step (so a slide that starts and ends inside one
+step is found too), located by brentq, and the integration restarted there with the new
+mode; switches that coincide (the tread branches of a contact mass share its stick rate w,
+so their lambdas change sign together) are made together, and after every switch the other
+groups' modes are re-checked. Each piece is thus integrated on a smooth right-hand side.
+A sliding spring group is put back exactly on its ellipse (radial scaling of its
+deflections, a change of the order of the integration tolerance) at the end of every
+piece. If Fz changes so that a spring group is outside its new limit, it is put on the
+limit by the same radial scaling (the SPEC's "its force is put on the limit"; a choice,
+only exercised by test_matches_the_reference_with_a_varying_load). Accuracy: the FMU and
+this reference agree to ~1e-12 of Fmax wherever the FMU finds every switch.
 
 Not supported (not needed by the tests): lift-off (Fz <= 0), ramped vx or Fz, a DDT with
 zero damping under friction.
@@ -173,34 +184,43 @@ def spring_slide_rates(Fy, Fx, Ly, Lx, ky, kx, gy, gx):
     return gy - lam * ny, gx - lam * nx
 
 
-def damped_group_forces(Ty, Tx, Ly, Lx, dy, dx):
-    """Forces of damped planar groups from their trial forces T = k b + d g: T inside the
-    ellipse; outside, F = T / (1 + lam d / L^2) with lam >= 0 putting F on the ellipse
-    (slip rate lam F/L^2 along the normal, the damper in series takes d times it off T).
+def damped_group_force(Ty, Tx, Ly, Lx, dy, dx):
+    """Force (Fy, Fx) of one damped planar group (floats) from its trial force
+    T = k b + d g: T inside the ellipse; outside, F = T / (1 + lam d / L^2) with lam >= 0
+    putting F on the ellipse (slip rate lam F/L^2 along the normal; the damper in series
+    takes d times it off T).
 
-    The equation sum q/(1 + lam a)^2 = 1 (q = (T/L)^2, a = d/L^2) is convex and decreasing
-    in lam; Newton from the lower bound (sqrt(f) - 1)/max(a) converges monotonically."""
-    Ty, Tx = np.array(Ty, float), np.array(Tx, float)
-    f = ellipse_value(Ty, Tx, Ly, Lx)
-    out = f > 1.0
-    if not np.any(out):
+    The equation qy/(1 + lam ay)^2 + qx/(1 + lam ax)^2 = 1 (q = (T/L)^2, a = d/L^2) is convex
+    and decreasing in lam; Newton from the lower bound (sqrt(f) - 1)/max(a) converges
+    monotonically."""
+    qy, qx = (Ty / Ly) ** 2, (Tx / Lx) ** 2
+    f = qy + qx
+    if not f > 1.0:
         return Ty, Tx
-    Ly, Lx = np.broadcast_to(Ly, Ty.shape)[out], np.broadcast_to(Lx, Ty.shape)[out]
-    dy, dx = np.broadcast_to(dy, Ty.shape)[out], np.broadcast_to(dx, Ty.shape)[out]
-    qy, qx = (Ty[out] / Ly) ** 2, (Tx[out] / Lx) ** 2
     ay, ax = dy / Ly ** 2, dx / Lx ** 2
-    lam = (np.sqrt(f[out]) - 1.0) / np.maximum(ay, ax)
+    lam = (math.sqrt(f) - 1.0) / max(ay, ax)
     for _ in range(100):
         sy, sx = 1.0 / (1.0 + lam * ay), 1.0 / (1.0 + lam * ax)
-        h = qy * sy ** 2 + qx * sx ** 2 - 1.0
-        dh = -2.0 * (qy * ay * sy ** 3 + qx * ax * sx ** 3)
-        step = -h / dh
-        lam = lam + step
-        if np.all((np.abs(step) <= 4e-16 * lam) | (np.abs(h) <= 1e-15)):
+        h = qy * sy * sy + qx * sx * sx - 1.0
+        step = h / (2.0 * (qy * ay * sy ** 3 + qx * ax * sx ** 3))
+        lam += step
+        if abs(step) <= 4e-16 * lam or abs(h) <= 1e-15:
             break
+    return Ty / (1.0 + lam * ay), Tx / (1.0 + lam * ax)
+
+
+def damped_group_forces(Ty, Tx, Ly, Lx, dy, dx):
+    """damped_group_force element by element over broadcast arrays."""
+    Ty, Tx = np.array(Ty, float), np.array(Tx, float)
+    out = np.nonzero(ellipse_value(Ty, Tx, Ly, Lx) > 1.0)
+    if out[0].size == 0:
+        return Ty, Tx
     Fy, Fx = Ty.copy(), Tx.copy()
-    Fy[out] = Ty[out] / (1.0 + lam * ay)
-    Fx[out] = Tx[out] / (1.0 + lam * ax)
+    shape = Ty.shape
+    Ly, Lx, dy, dx = (np.broadcast_to(a, shape) for a in (Ly, Lx, dy, dx))
+    for idx in zip(*out):
+        Fy[idx], Fx[idx] = damped_group_force(float(Ty[idx]), float(Tx[idx]), float(Ly[idx]),
+                                              float(Lx[idx]), float(dy[idx]), float(dx[idx]))
     return Fy, Fx
 
 
@@ -219,6 +239,7 @@ def damped_rates(F, k, d, b):
 
 EPS_F = 1e-12     # a sticking spring group starts sliding at f = 1 + EPS_F (then put on f = 1)
 GRID = 16         # sign checks of the switch indicators per DOP853 step (dense output)
+SIMULTANEOUS = 1e-12   # switches closer than this fraction of the step piece are one event
 
 
 class FrictionReferenceTire:
@@ -256,6 +277,10 @@ class FrictionReferenceTire:
         self.others = {"RLT": [], "DDT": [], "SecondOrder": ["eta", "w"],
                        "RingBody": ["eta", "w", "xr", "wx"]}[model]
         self.io = {name: i for i, name in enumerate(self.others)}
+        # contact mass, carcass damping, k_y; RingBody's m_x, k_x, ringDampingX
+        self._contact = ((p["contactMass"], p["carcassDampingY"]) if model == "SecondOrder"
+                         else (p["ringMass"], p["ringDampingY"])) + (
+            q["k_y"], p["ringInertia"] / p["Re"] ** 2, q["k_x"], p["ringDampingX"])
         C = {"RLT": {"y": q["C_y"], "x": q["C_x"]},
              "DDT": {"y": q["C_y"], "x": q["C_x"], "psi": p["stiffnessPsi"]},
              "SecondOrder": {"y": q["kT_y"], "x": q["C_x"]},
@@ -269,12 +294,16 @@ class FrictionReferenceTire:
             start += nb
             self.k[direction] = self.w * C[direction]                         # w_i C
             self.d[direction] = self.w * D[direction] if self.damped else None  # w_i D
+        self.w1 = self.w[:, 0]                                  # flat copies for _rhs
+        self.k1 = {e: v[:, 0] for e, v in self.k.items()}
+        self.d1 = {e: None if v is None else v[:, 0] for e, v in self.d.items()}
         if self.damped and self.limited and min(D.values()) <= 0.0:
             raise NotImplementedError("DDT with zero damping under friction")
         self.z = np.zeros(start)
         self.slide = np.zeros(nb, bool)      # modes of the spring groups
         self.outside = np.zeros(nb, bool)    # damped planar groups: trial force outside
         self.yaw_side = np.zeros(nb, int)    # damped yaw groups: -1, 0 (inside), +1
+        self._tau = 0.0                      # time into the current step
         self._setup()
 
     # ---------------------------------------------------------------- per-step constants
@@ -293,6 +322,7 @@ class FrictionReferenceTire:
         self.relax = {d: rho / s for d, s in lengths[self.model].items()}
         lim = limits(p, Fz)
         self.L = {d: self.phi * lim[d] for d in ("y", "x", "psi")}
+        self.L1 = {d: v[:, 0] for d, v in self.L.items()}      # flat copies for _rhs
         self._key = (self.inputs["vx"], Fz)
 
     # ---------------------------------------------------------------- inputs
@@ -355,40 +385,58 @@ class FrictionReferenceTire:
 
     # ---------------------------------------------------------------- right-hand side
     def _rhs(self, tau, z):
-        Z = z[:, None]
-        u = self._u(tau)
-        F, g = self._forces(Z, u)
-        dZ = np.empty_like(Z)
+        """dz/dt in the current modes (the branch dimension flattened: faster than the
+        (n, m) forms used for the indicators and outputs, same equations)."""
+        vy, r, vsx = self._u(tau)
+        sy, sx = self.sl["y"], self.sl["x"]
+        by, bx = z[sy], z[sx]
+        dz = np.empty_like(z)
         if self.damped:
-            for d, s in self.sl.items():
-                dZ[s] = damped_rates(F[d], self.k[d], self.d[d], Z[s])
-            return dZ[:, 0]
-        gy, gx = g["y"], g["x"]
+            bp = z[self.sl["psi"]]
+            drive_y = vy + self.inputs["vx"] * float(self.w1 @ bp)
+            g = {"y": drive_y - self.relax["y"] * by, "x": vsx - self.relax["x"] * bx,
+                 "psi": r - self.relax["psi"] * bp}
+            b = {"y": by, "x": bx, "psi": bp}
+            k, d = self.k1, self.d1
+            T = {e: k[e] * b[e] + d[e] * g[e] for e in b}
+            if self.limited:
+                T["y"], T["x"] = damped_group_forces(T["y"], T["x"], self.L1["y"], self.L1["x"],
+                                                     d["y"], d["x"])
+                T["psi"] = clamp_moments(T["psi"], self.L1["psi"])
+            for e, sl in self.sl.items():
+                dz[sl] = damped_rates(T[e], k[e], d[e], b[e])
+            return dz
+        if self.model == "RLT":
+            drive_y, drive_x = vy, vsx
+        elif self.model == "SecondOrder":
+            drive_y, drive_x = z[1], vsx
+        else:
+            drive_y, drive_x = z[1], z[3]
+        gy = drive_y - self.relax["y"] * by
+        gx = drive_x - self.relax["x"] * bx
+        Fy, Fx = self.k1["y"] * by, self.k1["x"] * bx
         if self.limited and self.slide.any():
-            sy, sx = spring_slide_rates(F["y"], F["x"], self.L["y"], self.L["x"],
-                                        self.k["y"], self.k["x"], gy, gx)
-            mode = self.slide[:, None]
-            gy, gx = np.where(mode, sy, gy), np.where(mode, sx, gx)
-        dZ[self.sl["y"]] = gy
-        dZ[self.sl["x"]] = gx
+            ry, rx = spring_slide_rates(Fy, Fx, self.L1["y"], self.L1["x"],
+                                        self.k1["y"], self.k1["x"], gy, gx)
+            gy, gx = np.where(self.slide, ry, gy), np.where(self.slide, rx, gx)
+        dz[sy], dz[sx] = gy, gx
         if self.others:
-            self._contact_mass_rates(Z, u, F, dZ)
-        return dZ[:, 0]
+            self._contact_mass_rates(z, (vy, r, vsx), {"y": Fy, "x": Fx}, dz)
+        return dz
 
     def _contact_mass_rates(self, Z, u, F, dZ):
-        """SPEC 4 contact-mass equations, the tread force being sum_i F_i."""
-        p, q, io = self.p, self.q, self.io
+        """SPEC 4 contact-mass equations, the tread force being sum_i F_i:
+        deta/dt = w - vy, m dw/dt = -F_tread - k_y eta - d (w - vy); RingBody also
+        dxr/dt = wx - vsx, m_x dwx/dt = -F_tread,x - k_x xr - ringDampingX (wx - vsx)."""
         vy, _, vsx = u
-        mass, damping = ((p["contactMass"], p["carcassDampingY"]) if self.model == "SecondOrder"
-                         else (p["ringMass"], p["ringDampingY"]))
-        eta, w = Z[io["eta"]], Z[io["w"]]
-        dZ[io["eta"]] = w - vy
-        dZ[io["w"]] = (-F["y"].sum(axis=0) - q["k_y"] * eta - damping * (w - vy)) / mass
+        mass, damping, k_y, mx, k_x, dx = self._contact
+        eta, w = Z[0], Z[1]
+        dZ[0] = w - vy
+        dZ[1] = (-F["y"].sum(axis=0) - k_y * eta - damping * (w - vy)) / mass
         if self.model == "RingBody":
-            mx = p["ringInertia"] / p["Re"] ** 2
-            xr, wx = Z[io["xr"]], Z[io["wx"]]
-            dZ[io["xr"]] = wx - vsx
-            dZ[io["wx"]] = (-F["x"].sum(axis=0) - q["k_x"] * xr - p["ringDampingX"] * (wx - vsx)) / mx
+            xr, wx = Z[2], Z[3]
+            dZ[2] = wx - vsx
+            dZ[3] = (-F["x"].sum(axis=0) - k_x * xr - dx * (wx - vsx)) / mx
 
     # ---------------------------------------------------------------- switches
     def _indicators(self, tau, Z):
@@ -423,7 +471,8 @@ class FrictionReferenceTire:
         else:
             i = k - nb
             if self.yaw_side[i] == 0:
-                T = self._trial_forces(self.z[:, None], self._stick_rates(self.z[:, None], self._u(tau)))
+                Z = self.z[:, None]
+                T = self._trial_forces(Z, self._stick_rates(Z, self._u(tau)))
                 self.yaw_side[i] = 1 if T["psi"][i, 0] > 0.0 else -1
             else:
                 self.yaw_side[i] = 0
@@ -438,24 +487,29 @@ class FrictionReferenceTire:
         z[self.sl["y"].start + i] *= s
         z[self.sl["x"].start + i] *= s
 
-    def _decide_modes(self):
-        """At the start of a step (new inputs). Spring groups: outside -> put on the limit;
-        on the ellipse -> slide iff the motion pushes outward (lambda > 0); else stick.
-        Damped groups: record on which side of each kink the trial force is."""
+    def _decide_modes(self, exempt=()):
+        """At the start of a step (new inputs) and after every switch (for the groups that
+        did not just switch, `exempt`). Spring groups: outside -> put on the limit; on the
+        ellipse -> slide iff the motion pushes outward (lambda > 0); else stick. Damped
+        groups: record on which side of each kink the trial force is."""
         if not self.limited:
             return
+        nb = self.nb
         Z = self.z[:, None]
-        u = self._u(0.0)
+        u = self._u(self._tau)
         g = self._stick_rates(Z, u)
         T = self._trial_forces(Z, g)
         f = ellipse_value(T["y"], T["x"], self.L["y"], self.L["x"])[:, 0]
         if self.damped:
-            self.outside[:] = f > 1.0
             t, L = T["psi"][:, 0], self.L["psi"][:, 0]
-            self.yaw_side[:] = np.where(t > L, 1, np.where(t < -L, -1, 0))
+            for i in range(nb):
+                if i not in exempt:
+                    self.outside[i] = f[i] > 1.0
+                if nb + i not in exempt:
+                    self.yaw_side[i] = 1 if t[i] > L[i] else (-1 if t[i] < -L[i] else 0)
             return
-        for i in range(self.nb):
-            if f[i] > 1.0 + EPS_F:
+        for i in range(nb):
+            if i not in exempt and f[i] > 1.0 + EPS_F:
                 self._put_on_ellipse(i)
         Z = self.z[:, None]
         g = self._stick_rates(Z, u)
@@ -463,12 +517,14 @@ class FrictionReferenceTire:
         f = ellipse_value(T["y"], T["x"], self.L["y"], self.L["x"])[:, 0]
         lam, _, _ = spring_slide_multiplier(T["y"], T["x"], self.L["y"], self.L["x"],
                                             self.k["y"], self.k["x"], g["y"], g["x"])
-        self.slide[:] = (f >= 1.0 - ON_LIMIT) & (lam[:, 0] > 0.0)
+        for i in range(nb):
+            if i not in exempt:
+                self.slide[i] = f[i] >= 1.0 - ON_LIMIT and lam[i, 0] > 0.0
 
     # ---------------------------------------------------------------- stepping
     def _integrate(self, tau0, h):
         """Integrate from tau0 towards h in the current modes; stop at the first switch.
-        Returns (tau reached, index of the switching group or None)."""
+        Returns (tau reached, indices of the switching groups: [] if none)."""
         solver = DOP853(self._rhs, tau0, self.z, h, rtol=RTOL, atol=ATOL)
         prev = self._indicators(tau0, self.z[:, None])[:, 0] if self.limited else None
         while solver.status == "running":
@@ -485,32 +541,39 @@ class FrictionReferenceTire:
             rises = (ind[:, :-1] <= 0.0) & (ind[:, 1:] > 0.0)
             if rises.any():
                 c = int(np.nonzero(rises.any(axis=0))[0][0])
-                best = None
+                roots = {}
                 for k in np.nonzero(rises[:, c])[0]:
-                    root = brentq(lambda t: self._indicators(t, dense(t)[:, None])[k, 0],
-                                  ts[c], ts[c + 1], xtol=1e-300, rtol=4 * np.finfo(float).eps)
-                    if best is None or root < best[0]:
-                        best = (root, int(k))
-                self.z = dense(best[0]).copy()
-                return best[0], best[1]
+                    roots[int(k)] = brentq(
+                        lambda t: self._indicators(t, dense(t)[:, None])[k, 0],
+                        ts[c], ts[c + 1], xtol=1e-300, rtol=4 * np.finfo(float).eps)
+                first = min(roots.values())
+                # groups whose switch coincides (e.g. all tread branches of a contact mass
+                # share the stick rate w, so their lambdas change sign together) switch together
+                together = [k for k, t in roots.items() if t <= first + SIMULTANEOUS * (h - tau0)]
+                self.z = dense(first).copy()
+                return first, together
             prev = ind[:, -1]
         self.z = solver.y.copy()
-        return h, None
+        return h, []
 
     def step(self, h):
         """Advance by h with the inputs held (vy, steerRate, vsx ramped by their rates)."""
         if (self.inputs["vx"], self.inputs["Fz"]) != self._key:
             self._setup()
-        self._decide_modes()
         tau, pieces = 0.0, 0
+        self._tau = tau
+        self._decide_modes()
         while tau < h:
             pieces += 1
             if pieces > 100000:
                 raise RuntimeError("too many switches in one step")
-            tau, k = self._integrate(tau, h)
-            if k is not None:
+            tau, switching = self._integrate(tau, h)
+            self._tau = tau
+            for k in switching:
                 self.n_events += 1
                 self._switch(k, tau)
+            if switching:
+                self._decide_modes(exempt=switching)
             if not self.damped:
                 for i in np.nonzero(self.slide)[0]:
                     self._put_on_ellipse(i)
