@@ -246,6 +246,26 @@ impl Friction {
         self.state = SliderState::AT_REST;
     }
 
+    /// An estimate of the fastest rate in the system with its sliders, 1/s: diagonal
+    /// rates, the frequencies of coupled pairs, and a sliding damper's `C / D`.
+    pub fn fastest_rate(&self, system: &StateSpace) -> f64 {
+        let n = system.states;
+        let a = &system.a;
+        let mut fastest = 0.0_f64;
+        for i in 0..n {
+            fastest = fastest.max(a[(i, i)].abs());
+            for j in 0..i {
+                fastest = fastest.max((a[(i, j)] * a[(j, i)]).abs().sqrt());
+            }
+        }
+        for e in &self.present[..self.present_count] {
+            if e.damping > 0.0 {
+                fastest = fastest.max(e.stiffness / e.damping);
+            }
+        }
+        fastest
+    }
+
     /// Off the ground for `relaxation_times` lift-off relaxation times: the offsets
     /// relax like the states, and every group sticks.
     pub fn lift_off(&mut self, relaxation_times: f64) {
@@ -271,7 +291,9 @@ impl Friction {
         (inputs, input_rates): (&DrivingVector, &DrivingVector),
         h: f64,
     ) -> bool {
-        if self.state.any_sliding() {
+        // The bound of a force over the step from its ends is trusted where the step is
+        // short against the dynamics; a longer step goes to the event-locating path.
+        if self.state.any_sliding() || h * self.fastest_rate(system) > MAX_STICKING_STEP {
             return false;
         }
         let n = system.states;
@@ -363,6 +385,10 @@ impl Friction {
         true
     }
 }
+
+/// The longest step, in units of the fastest time constant, that the sticking check
+/// takes on its own ([`Friction::sticking_step`]).
+const MAX_STICKING_STEP: f64 = 0.5;
 
 /// Whether state `k` neither drives nor is driven by the other states: then the step
 /// map's diagonal entry is `e^(A_kk h)`, the decay of a branch offset. (Block-triangular is
