@@ -7,6 +7,10 @@
 //! step as in a vehicle model, and "constant", vx = 10 and Fz = 50000; vy = 0.1 sin t,
 //! steerRate = 0.05 cos t, vsx = 0.01 sin t throughout (the inputs of the shared yardstick).
 //! The inputs are tabulated before timing. Median over timed passes after a warm-up.
+//!
+//! Each model runs with three friction settings: `Unlimited` (the linear model), `Brush`
+//! (the default; these inputs stay below 0.2 Fmax, so every branch sticks), and `Brush`
+//! with mu = 0.02 (Fmax 1 kN: the tire slides, and steps go through the sliding path).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -71,24 +75,33 @@ fn main() {
     let fmu = support::load();
     let tables = [input_table(true, steps), input_table(false, steps)];
     println!(
-        "{:<12} {:>24} {:>24}",
+        "{:<26} {:>24} {:>24}",
         "ns per step", "vx, Fz varying (min-max)", "constant (min-max)"
     );
-    for (model, name) in [(1, "RLT"), (2, "DDT"), (3, "SecondOrder"), (4, "RingBody")] {
-        let mut cells = Vec::new();
-        for table in &tables {
-            let mut slave = Slave::initialised(&fmu, &format!("bench_{name}"), model);
-            let mut outputs = [0.0; 9];
-            pass(&mut slave, table, &mut outputs); // warm-up
-            let times: Vec<f64> = (0..passes)
-                .map(|_| pass(&mut slave, table, &mut outputs))
-                .collect();
-            let (low, high) = (
-                times.iter().copied().fold(f64::INFINITY, f64::min),
-                times.iter().copied().fold(0.0, f64::max),
-            );
-            cells.push(format!("{:.0} ({low:.0}-{high:.0})", median(times)));
+    let settings: [(&str, i32, &[(u32, f64)]); 3] = [
+        ("Unlimited", 1, &[]),
+        ("Brush", 3, &[]),
+        ("Brush sliding", 3, &[(vr::MU_X, 0.02), (vr::MU_Y, 0.02)]),
+    ];
+    for (model, model_name) in [(1, "RLT"), (2, "DDT"), (3, "SecondOrder"), (4, "RingBody")] {
+        for (law_name, law, reals) in settings {
+            let name = format!("{model_name} {law_name}");
+            let mut cells = Vec::new();
+            for table in &tables {
+                let integers = [(vr::MODEL, model), (vr::FRICTION, law)];
+                let mut slave = Slave::configured(&fmu, "bench", &integers, reals);
+                let mut outputs = [0.0; 9];
+                pass(&mut slave, table, &mut outputs); // warm-up
+                let times: Vec<f64> = (0..passes)
+                    .map(|_| pass(&mut slave, table, &mut outputs))
+                    .collect();
+                let (low, high) = (
+                    times.iter().copied().fold(f64::INFINITY, f64::min),
+                    times.iter().copied().fold(0.0, f64::max),
+                );
+                cells.push(format!("{:.0} ({low:.0}-{high:.0})", median(times)));
+            }
+            println!("{name:<26} {:>24} {:>24}", cells[0], cells[1]);
         }
-        println!("{name:<12} {:>24} {:>24}", cells[0], cells[1]);
     }
 }

@@ -291,7 +291,11 @@ impl Tire {
 
     /// The friction step at these inputs, for outputs and their derivatives: `None` off
     /// the ground or without a limit.
-    fn limited_system(&mut self, inputs: &[f64; Input::COUNT], input_rates: &[f64; Input::COUNT]) -> Option<SlidingStep<'_>> {
+    fn limited_system(
+        &mut self,
+        inputs: &[f64; Input::COUNT],
+        input_rates: &[f64; Input::COUNT],
+    ) -> Option<SlidingStep<'_>> {
         let (vx, load) = (inputs[Input::Vx as usize], inputs[Input::Fz as usize]);
         if self.friction.is_none() || ContactMode::from_load(load) == ContactMode::LiftedOff {
             return None;
@@ -310,7 +314,12 @@ impl Tire {
     /// Outputs at given states, branches and inputs, with the friction limits at the
     /// inputs' load: a spring force beyond its limit is on it (it slides at once), and a
     /// damped force is the closest point of its ellipse.
-    fn outputs_with_limits(&mut self, x: &StateVector, sliders: &SliderState, inputs: &[f64; Input::COUNT]) -> OutputVector {
+    fn outputs_with_limits(
+        &mut self,
+        x: &StateVector,
+        sliders: &SliderState,
+        inputs: &[f64; Input::COUNT],
+    ) -> OutputVector {
         let u = Self::driving_inputs(inputs);
         let Some(step) = self.limited_system(inputs, &[0.0; Input::COUNT]) else {
             let point = self.operating_point(inputs[Input::Vx as usize], inputs[Input::Fz as usize]);
@@ -356,7 +365,12 @@ impl Tire {
         const DT: f64 = 1e-7;
         let mut at = |sign: f64| {
             let mut moved = sliders;
-            for (b, r) in moved.offsets.iter_mut().flatten().zip(branch_rates.offsets.iter().flatten()) {
+            for (b, r) in moved
+                .offsets
+                .iter_mut()
+                .flatten()
+                .zip(branch_rates.offsets.iter().flatten())
+            {
                 *b += sign * DT * r;
             }
             let mut moved_inputs = inputs;
@@ -374,7 +388,11 @@ impl Tire {
         let inputs = self.inputs;
         let (x, sliders) = (self.states, self.friction.as_ref().expect("a limit acts").state);
         let value = inputs[input as usize];
-        let scale = if input == Input::Fz { self.parameters.get(Parameter::NominalLoad) } else { 1.0 };
+        let scale = if input == Input::Fz {
+            self.parameters.get(Parameter::NominalLoad)
+        } else {
+            1.0
+        };
         let delta = 1e-6 * (value.abs() + scale);
         let mut at = |sign: f64| {
             let mut moved = inputs;

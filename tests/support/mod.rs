@@ -28,6 +28,9 @@ pub mod vr {
     pub const MY: u32 = 14;
     pub const OUTPUTS: [u32; 9] = [11, 12, 13, 14, 15, 16, 17, 18, 19];
     pub const MODEL: u32 = 100;
+    pub const FRICTION: u32 = 121;
+    pub const MU_X: u32 = 122;
+    pub const MU_Y: u32 = 123;
     pub const CALPHA: u32 = 101;
     pub const SIGMA_Y: u32 = 103;
 }
@@ -153,9 +156,24 @@ impl<'a> Slave<'a> {
 
     /// Instantiated, model chosen, initialised, ready to step.
     pub fn initialised(fmu: &'a Fmi2Binding, name: &str, model: i32) -> Self {
+        Self::configured(fmu, name, &[(vr::MODEL, model)], &[])
+    }
+
+    /// Instantiated, the given Integer and Real parameters set, initialised.
+    pub fn configured(
+        fmu: &'a Fmi2Binding,
+        name: &str,
+        integers: &[(u32, i32)],
+        reals: &[(u32, f64)],
+    ) -> Self {
         let s = Self::instantiate(fmu, name);
         assert_eq!(unsafe { fmu.fmi2SetupExperiment(s.c, 0, 0.0, 0.0, 0, 0.0) }, OK);
-        assert_eq!(s.set_integer(&[vr::MODEL], &[model]), OK);
+        for &(reference, value) in integers {
+            assert_eq!(s.set_integer(&[reference], &[value]), OK);
+        }
+        for &(reference, value) in reals {
+            assert_eq!(s.set_real(&[reference], &[value]), OK);
+        }
         assert_eq!(unsafe { fmu.fmi2EnterInitializationMode(s.c) }, OK);
         assert_eq!(unsafe { fmu.fmi2ExitInitializationMode(s.c) }, OK);
         s

@@ -52,7 +52,9 @@ impl GroupInput {
 
     /// `sum (F_k / L_k)^2` for forces `force`.
     pub fn utilisation(&self, force: &[f64; Direction::COUNT]) -> f64 {
-        self.directions().map(|k| (force[k] / self.limit[k]).powi(2)).sum()
+        self.directions()
+            .map(|k| (force[k] / self.limit[k]).powi(2))
+            .sum()
     }
 
     /// The spring forces `K b`.
@@ -92,7 +94,11 @@ impl GroupInput {
             };
         }
         let (numerator, denominator) = self.flow_projection(&force);
-        let lambda = if denominator > 0.0 { numerator / denominator } else { 0.0 };
+        let lambda = if denominator > 0.0 {
+            numerator / denominator
+        } else {
+            0.0
+        };
         let mut rate = [0.0; Direction::COUNT];
         for k in self.directions() {
             rate[k] = self.sticking_rate[k] - lambda * force[k] / self.limit[k].powi(2);
@@ -158,7 +164,11 @@ impl GroupInput {
     /// The point of the ellipse `F_k = T_k / (1 + lambda a_k)`, `a_k = Dw_k / L_k^2`, for a
     /// trial force `T` with `utilisation > 0` (outside the ellipse `lambda > 0`; inside, the
     /// same formula continues with `lambda < 0`).
-    pub fn closest_point(&self, trial: &[f64; Direction::COUNT], utilisation: f64) -> [f64; Direction::COUNT] {
+    pub fn closest_point(
+        &self,
+        trial: &[f64; Direction::COUNT],
+        utilisation: f64,
+    ) -> [f64; Direction::COUNT] {
         let mut weight = [0.0; Direction::COUNT];
         for k in self.directions() {
             weight[k] = self.damping[k] / self.limit[k].powi(2);
@@ -221,7 +231,11 @@ mod tests {
     fn a_sliding_spring_group_keeps_its_force_on_the_ellipse() {
         // On the ellipse: F = (30 cos t, 20 sin t).
         let t: f64 = 0.7;
-        let input = planar([30.0 * t.cos() / 1000.0, 20.0 * t.sin() / 400.0], [0.3, -0.2], 0.0);
+        let input = planar(
+            [30.0 * t.cos() / 1000.0, 20.0 * t.sin() / 400.0],
+            [0.3, -0.2],
+            0.0,
+        );
         assert!((input.utilisation(&input.spring_force()) - 1.0).abs() < 1e-14);
         let out = input.evaluate(true);
         // d/dt sum (K b / L)^2 = 2 sum F K db/dt / L^2 = 0.
@@ -244,13 +258,21 @@ mod tests {
 
     #[test]
     fn a_damped_group_projects_its_trial_force_onto_the_ellipse() {
-        for (b, g) in [([0.02, 0.03], [5.0, -3.0]), ([0.0, 0.06], [0.0, 10.0]), ([-0.04, 0.01], [-1.0, 0.0])] {
+        for (b, g) in [
+            ([0.02, 0.03], [5.0, -3.0]),
+            ([0.0, 0.06], [0.0, 10.0]),
+            ([-0.04, 0.01], [-1.0, 0.0]),
+        ] {
             let input = planar(b, g, 10.0);
             let trial = input.sticking_force();
             let utilisation = input.utilisation(&trial);
             assert!(utilisation > 1.0);
             let out = input.evaluate(true);
-            assert!((input.utilisation(&out.force) - 1.0).abs() < 1e-12, "{:?}", out.force);
+            assert!(
+                (input.utilisation(&out.force) - 1.0).abs() < 1e-12,
+                "{:?}",
+                out.force
+            );
             // The force is the trial force moved along the damping-weighted normal.
             for k in 0..2 {
                 assert!(out.force[k].abs() <= trial[k].abs() && out.force[k] * trial[k] >= 0.0);

@@ -85,7 +85,8 @@ pub enum Direction {
 
 impl Direction {
     pub const COUNT: usize = 3;
-    pub const ALL: [Direction; Direction::COUNT] = [Direction::Longitudinal, Direction::Lateral, Direction::Yaw];
+    pub const ALL: [Direction; Direction::COUNT] =
+        [Direction::Longitudinal, Direction::Lateral, Direction::Yaw];
 }
 
 /// The groups of directions that share a limit: the ellipse, and the yaw moment.
@@ -142,7 +143,10 @@ impl Limits {
         let load = load.max(0.0);
         let factor = (1.0 + p.get(Parameter::FrictionLoadSensitivity) * (load / nominal - 1.0)).max(0.0);
         let limit = |mu: f64, lever: f64| mu * factor * load * lever;
-        let (mu_x, mu_y) = (p.get(Parameter::LongitudinalFriction), p.get(Parameter::LateralFriction));
+        let (mu_x, mu_y) = (
+            p.get(Parameter::LongitudinalFriction),
+            p.get(Parameter::LateralFriction),
+        );
         let bore = p.get(Parameter::BoreRadius);
         Limits([limit(mu_x, 1.0), limit(mu_y, 1.0), limit(mu_y, bore)])
     }
@@ -203,7 +207,12 @@ impl Friction {
         (law != FrictionLaw::Unlimited).then(|| Friction {
             law,
             branches: law.branches(),
-            inverse_first_breakpoint: 1.0 / law.branches().iter().map(Branch::breakpoint).fold(f64::INFINITY, f64::min),
+            inverse_first_breakpoint: 1.0
+                / law
+                    .branches()
+                    .iter()
+                    .map(Branch::breakpoint)
+                    .fold(f64::INFINITY, f64::min),
             present: {
                 let mut present = [PresentElement::default(); Direction::COUNT];
                 for (slot, (d, e)) in present
@@ -235,9 +244,11 @@ impl Friction {
 
     /// The groups this model has, each with whether its elements are damped.
     pub fn groups(&self) -> impl Iterator<Item = Group> + '_ {
-        Group::ALL
-            .into_iter()
-            .filter(|g| g.directions().iter().any(|&d| self.elements[d as usize].is_some()))
+        Group::ALL.into_iter().filter(|g| {
+            g.directions()
+                .iter()
+                .any(|&d| self.elements[d as usize].is_some())
+        })
     }
 
     /// Puts every branch at its element's state (at rest, or after states were set from
@@ -334,7 +345,12 @@ impl Friction {
                     stiffness * rates1[k] + damping * rate(&rates1, &du, k),
                 )
             } else {
-                (stiffness * x0[k], stiffness * rate(x0, &u0, k), stiffness * x1[k], stiffness * rate(x1, &u1, k))
+                (
+                    stiffness * x0[k],
+                    stiffness * rate(x0, &u0, k),
+                    stiffness * x1[k],
+                    stiffness * rate(x1, &u1, k),
+                )
             };
             let branch_offsets = &mut offsets[d][..self.branches.len()];
             if branch_offsets.iter().all(|&o| o == 0.0) {
@@ -346,7 +362,11 @@ impl Friction {
             // Branches differ by offsets that relax at the element's rate.
             offsets_moved = true;
             let relaxation = system.a[(k, k)];
-            let decay = if decoupled(system, k) { transition[(k, k)] } else { (relaxation * h).exp() };
+            let decay = if decoupled(system, k) {
+                transition[(k, k)]
+            } else {
+                (relaxation * h).exp()
+            };
             let offset_force = stiffness + damping * relaxation;
             // An offset far below the rounding of the limit deflection is gone.
             let negligible = 1e-15 * limits.0[d] / stiffness;

@@ -137,12 +137,21 @@ impl<'a> SlidingStep<'a> {
     /// One group's branch `i` at model rates `x_rates` (whose element rows hold the
     /// sticking rate of `U`). A direction with a zero limit is left out: its branch
     /// deflection stays at zero ([`SlidingStep::prepare`] puts it there).
-    pub fn group_input(&self, group: Group, i: usize, x: &StateVector, x_rates: &StateVector, z: &Vector) -> GroupInput {
+    pub fn group_input(
+        &self,
+        group: Group,
+        i: usize,
+        x: &StateVector,
+        x_rates: &StateVector,
+        z: &Vector,
+    ) -> GroupInput {
         let branch = self.friction.branches[i];
         let mut input = GroupInput::default();
         for &direction in group.directions() {
             let d = direction as usize;
-            let Some(element) = self.friction.elements[d] else { continue };
+            let Some(element) = self.friction.elements[d] else {
+                continue;
+            };
             if self.limits.0[d] <= 0.0 {
                 continue;
             }
@@ -235,7 +244,8 @@ impl<'a> SlidingStep<'a> {
                 interior = first_past_tolerance(&events).map(|(g, i)| (m as f64 * h, g, i));
             }
             if interior.is_none() && m >= 2 {
-                interior = peak_between(&recent[0], &recent[1], &events).map(|(s, g, i)| ((m as f64 - 1.0 + s) * h, g, i));
+                interior = peak_between(&recent[0], &recent[1], &events)
+                    .map(|(s, g, i)| ((m as f64 - 1.0 + s) * h, g, i));
             }
             for g in 0..Group::COUNT {
                 for i in 0..MAX_BRANCHES {
@@ -264,14 +274,24 @@ impl<'a> SlidingStep<'a> {
     /// The time in `window` (clipped to the substep) at which group `g`, branch `i` has
     /// its largest event value, if that is past the tolerance: a golden-section search on
     /// the accurate solution.
-    fn touches_near(&self, t: f64, z: &Vector, modes: &Modes, length: f64, window: (f64, f64), (g, i): (usize, usize)) -> Option<f64> {
+    fn touches_near(
+        &self,
+        t: f64,
+        z: &Vector,
+        modes: &Modes,
+        length: f64,
+        window: (f64, f64),
+        (g, i): (usize, usize),
+    ) -> Option<f64> {
         let scale = self.deflection_scale();
         let value = |tau: f64| {
             if tau <= 0.0 {
                 return self.events(t, z, modes)[g][i];
             }
             self.substep_plain(t, z, tau, modes, scale)
-                .map_or(f64::NEG_INFINITY, |z_tau| self.events(t + tau, &z_tau, modes)[g][i])
+                .map_or(f64::NEG_INFINITY, |z_tau| {
+                    self.events(t + tau, &z_tau, modes)[g][i]
+                })
         };
         const GOLDEN: f64 = 0.618_033_988_749_894_9;
         let (mut lo, mut hi) = (window.0.max(0.0), window.1.min(length));
@@ -310,25 +330,42 @@ impl<'a> SlidingStep<'a> {
 
     /// The end of an extrapolated substep, without looking inside it for events.
     fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64) -> Option<Vector> {
-        self.extrapolate(t, z, length, modes, scale, false).map(|(z, _, _, _)| z)
+        self.extrapolate(t, z, length, modes, scale, false)
+            .map(|(z, _, _, _)| z)
     }
 
     /// An extrapolated substep, with where a limit may have been touched inside it and
     /// the spacing of the samples that found it.
-    fn substep(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64) -> Option<(Vector, f64, Option<Interior>, f64)> {
+    fn substep(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
         self.extrapolate(t, z, length, modes, scale, true)
     }
 
     /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
     /// the factor by which the next substep may grow, and the first interior point where
     /// an event value was past the tolerance (from the finest midpoint sequence).
-    fn extrapolate(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64, look_inside: bool) -> Option<(Vector, f64, Option<Interior>, f64)> {
+    fn extrapolate(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+        look_inside: bool,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
         let (start_rates, start_events) = self.rates(t, z, modes);
         let mut table = [[0.0; SIZE]; SEQUENCE.len()];
         for j in 0..SEQUENCE.len() {
             let mut row = [[0.0; SIZE]; SEQUENCE.len()];
             let (interior, closest, spacing);
-            (row[0], interior, closest, spacing) = self.midpoint(t, z, (&start_rates, &start_events), length, SEQUENCE[j], modes);
+            (row[0], interior, closest, spacing) =
+                self.midpoint(t, z, (&start_rates, &start_events), length, SEQUENCE[j], modes);
             for k in 1..=j {
                 let ratio = (SEQUENCE[j] as f64 / SEQUENCE[j - k] as f64).powi(2) - 1.0;
                 for c in 0..SIZE {
@@ -337,7 +374,10 @@ impl<'a> SlidingStep<'a> {
             }
             if j >= 2 {
                 let error = (0..SIZE)
-                    .map(|c| (row[j][c] - row[j - 1][c]).abs() / (TOLERANCE * (scale + z[c].abs().max(row[j][c].abs()))))
+                    .map(|c| {
+                        (row[j][c] - row[j - 1][c]).abs()
+                            / (TOLERANCE * (scale + z[c].abs().max(row[j][c].abs())))
+                    })
                     .fold(0.0, f64::max);
                 if error <= 1.0 {
                     // Error ~ length^(2j + 1): aim at a third of the tolerance next time.
@@ -381,7 +421,17 @@ impl<'a> SlidingStep<'a> {
 
     /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
     /// event tolerance.
-    fn crossing(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64, (g, i): (usize, usize), start: f64, end: f64) -> f64 {
+    fn crossing(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+        (g, i): (usize, usize),
+        start: f64,
+        end: f64,
+    ) -> f64 {
         let level = 0.5 * EVENT_TOLERANCE;
         let (mut lo, mut hi) = (0.0, length);
         let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
@@ -419,7 +469,12 @@ impl<'a> SlidingStep<'a> {
 
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
     /// of the step.
-    pub fn integrate(&self, x: &mut StateVector, sliders: &mut SliderState, h: f64) -> Result<(), NotConverged> {
+    pub fn integrate(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        h: f64,
+    ) -> Result<(), NotConverged> {
         let mut z = self.pack(x, sliders);
         let mut modes = sliders.sliding;
         let scale = self.deflection_scale();
@@ -432,7 +487,8 @@ impl<'a> SlidingStep<'a> {
                 break;
             }
             length = length.min(h - t);
-            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, length, &modes, scale) else {
+            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, length, &modes, scale)
+            else {
                 length *= 0.25;
                 if length <= 1e-15 * h {
                     return Err(NotConverged);
@@ -446,7 +502,14 @@ impl<'a> SlidingStep<'a> {
             if first_past_tolerance(&end_events).is_none()
                 && let Some((sample, g, i)) = interior
                 && start_events[g][i] <= EVENT_TOLERANCE
-                && let Some(at) = self.touches_near(t, &z, &modes, length, (sample - spacing, sample + spacing), (g, i))
+                && let Some(at) = self.touches_near(
+                    t,
+                    &z,
+                    &modes,
+                    length,
+                    (sample - spacing, sample + spacing),
+                    (g, i),
+                )
                 && let Some(z_at) = self.substep_plain(t, &z, at, &modes, scale)
             {
                 length = at;
@@ -461,7 +524,16 @@ impl<'a> SlidingStep<'a> {
                         let at = if start_events[g][i] > EVENT_TOLERANCE {
                             0.0
                         } else {
-                            self.crossing(t, &z, length, &modes, scale, (g, i), start_events[g][i], end_events[g][i])
+                            self.crossing(
+                                t,
+                                &z,
+                                length,
+                                &modes,
+                                scale,
+                                (g, i),
+                                start_events[g][i],
+                                end_events[g][i],
+                            )
                         };
                         if first.is_none_or(|(best, _, _)| at < best) {
                             first = Some((at, g, i));
@@ -517,7 +589,11 @@ impl<'a> SlidingStep<'a> {
     /// A first substep that the extrapolation handles: a couple of the fastest rates.
     fn initial_substep(&self) -> f64 {
         let fastest = self.friction.fastest_rate(self.system);
-        if fastest > 0.0 { 2.0 / fastest } else { f64::INFINITY }
+        if fastest > 0.0 {
+            2.0 / fastest
+        } else {
+            f64::INFINITY
+        }
     }
 }
 

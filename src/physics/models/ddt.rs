@@ -80,7 +80,11 @@ impl TireLagModel for Ddt {
             damping: p.get(Parameter::YawDamping),
             force_outputs: [(Output::Mz, -1.0), (Output::Mz, 0.0)],
         };
-        [Some(longitudinal(p).longitudinal_element(p)), Some(lateral), Some(yaw)]
+        [
+            Some(longitudinal(p).longitudinal_element(p)),
+            Some(lateral),
+            Some(yaw),
+        ]
     }
 
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
