@@ -1,7 +1,7 @@
 //! SPEC 6b: no heap allocation in fmi2SetReal, fmi2GetReal or fmi2DoStep after the first
 //! step. A counting global allocator watches this test's thread while 10,000 full steps
 //! of each model (5 inputs set with vx and Fz changing every step, a step, 9 outputs
-//! read) run through the crate's exported C functions, called in-process (a separately
+//! read), without a friction limit, with Brush sticking and with Brush sliding, run through the crate's exported C functions, called in-process (a separately
 //! loaded .so would bring its own allocator, which this one could not see).
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -61,6 +61,8 @@ fn allocations_in(body: impl FnOnce()) -> u64 {
 const INPUTS: [u32; 5] = [1, 2, 3, 4, 5];
 const OUTPUTS: [u32; 9] = [11, 12, 13, 14, 15, 16, 17, 18, 19];
 const TIRE_MODEL: u32 = 100;
+const FRICTION: u32 = 121;
+const MU: [u32; 2] = [122, 123];
 const OK: i32 = fmi2Status_fmi2OK as i32;
 
 fn inputs_at(k: usize) -> [f64; 5] {
@@ -83,39 +85,55 @@ fn the_counter_sees_an_allocation() {
 fn a_step_allocates_nothing_after_the_first() {
     let callbacks = support::callbacks();
     let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
+    // Each model without a limit, with Brush (sticking at these inputs), and with Brush
+    // at mu = 0.02 (sliding: every step goes through the sliding integration).
+    let settings = [(1, None), (3, None), (3, Some(0.02))];
     for model in 1..=4 {
-        let name = CString::new(format!("no_allocation_{model}")).unwrap();
-        let c = fmi2Instantiate(
-            name.as_ptr(),
-            fmi2Type_fmi2CoSimulation,
-            guid.as_ptr(),
-            c"".as_ptr(),
-            &callbacks,
-            0,
-            0,
-        );
-        assert!(!c.is_null());
-        assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
-        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
-        assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
-        assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
-        let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
-        let mut outputs = [0.0; 9];
-        let mut step = |k: usize| {
-            assert_eq!(fmi2SetReal(c, INPUTS.as_ptr(), 5, table[k].as_ptr()) as i32, OK);
-            assert_eq!(fmi2DoStep(c, k as f64 * 1e-3, 1e-3, 1) as i32, OK);
-            assert_eq!(
-                fmi2GetReal(c, OUTPUTS.as_ptr(), 9, outputs.as_mut_ptr()) as i32,
-                OK
+        for (friction, mu) in settings {
+            let name = CString::new(format!("no_allocation_{model}_{friction}")).unwrap();
+            let c = fmi2Instantiate(
+                name.as_ptr(),
+                fmi2Type_fmi2CoSimulation,
+                guid.as_ptr(),
+                c"".as_ptr(),
+                &callbacks,
+                0,
+                0,
             );
-        };
-        step(0);
-        let allocations = allocations_in(|| (1..=10_000).for_each(&mut step));
-        assert_eq!(
-            allocations, 0,
-            "model {model}: {allocations} allocations in 10,000 steps"
-        );
-        assert!(outputs.iter().all(|v| v.is_finite()) && outputs[1] != 0.0);
-        fmi2FreeInstance(c);
+            assert!(!c.is_null());
+            assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
+            assert_eq!(fmi2SetInteger(c, &FRICTION, 1, &friction) as i32, OK);
+            if let Some(mu) = mu {
+                assert_eq!(fmi2SetReal(c, MU.as_ptr(), 2, [mu, mu].as_ptr()) as i32, OK);
+            }
+            assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
+            assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
+            assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
+            let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
+            let mut outputs = [0.0; 9];
+            let mut step = |k: usize| {
+                assert_eq!(fmi2SetReal(c, INPUTS.as_ptr(), 5, table[k].as_ptr()) as i32, OK);
+                assert_eq!(fmi2DoStep(c, k as f64 * 1e-3, 1e-3, 1) as i32, OK);
+                assert_eq!(
+                    fmi2GetReal(c, OUTPUTS.as_ptr(), 9, outputs.as_mut_ptr()) as i32,
+                    OK
+                );
+            };
+            step(0);
+            let allocations = allocations_in(|| (1..=10_000).for_each(&mut step));
+            assert_eq!(
+                allocations, 0,
+                "model {model}, friction {friction}, mu {mu:?}: {allocations} allocations in 10,000 steps"
+            );
+            assert!(outputs.iter().all(|v| v.is_finite()) && outputs[1] != 0.0);
+            if mu.is_some() {
+                assert!(
+                    outputs[1].abs() <= 0.02 * 50_000.0 * 1.05,
+                    "the limit acts: Fy = {}",
+                    outputs[1]
+                );
+            }
+            fmi2FreeInstance(c);
+        }
     }
 }
