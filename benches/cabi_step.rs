@@ -60,6 +60,9 @@ fn pass(slave: &mut Slave, table: &[[f64; 5]], outputs: &mut [f64; 9]) -> f64 {
     start.elapsed().as_nanos() as f64 / table.len() as f64
 }
 
+/// A friction setting: its name, the `friction` value and Real parameters to set.
+type Setting = (&'static str, i32, &'static [(u32, f64)]);
+
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
     values[values.len() / 2]
@@ -78,7 +81,7 @@ fn main() {
         "{:<26} {:>24} {:>24}",
         "ns per step", "vx, Fz varying (min-max)", "constant (min-max)"
     );
-    let settings: [(&str, i32, &[(u32, f64)]); 3] = [
+    let settings: [Setting; 3] = [
         ("Unlimited", 1, &[]),
         ("Brush", 3, &[]),
         ("Brush sliding", 3, &[(vr::MU_X, 0.02), (vr::MU_Y, 0.02)]),

@@ -195,7 +195,9 @@ impl GroupInput {
                         slope -= 2.0 * ratio * ratio * weight[k] * shrink;
                     }
                     let next = lambda - phi / slope;
-                    if !(next > lambda) || next - lambda <= 1e-16 * next.abs() {
+                    if next.partial_cmp(&lambda) != Some(std::cmp::Ordering::Greater)
+                        || next - lambda <= 1e-16 * next.abs()
+                    {
                         lambda = next.max(lambda);
                         break;
                     }
@@ -213,6 +215,7 @@ impl GroupInput {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
 

@@ -394,8 +394,8 @@ impl Friction {
                     utilisation += ratio * ratio;
                 }
             }
-            // Also false for NaN (a zero limit).
-            if !(utilisation < 1.0) {
+            // Also refused for NaN (a zero limit).
+            if utilisation.partial_cmp(&1.0) != Some(std::cmp::Ordering::Less) {
                 return false;
             }
         }

@@ -12,6 +12,8 @@
 //! The result is a function of the states, inputs and step size only (nothing is carried
 //! from one step to the next), so a restored FMU state continues bit-identically.
 
+// Groups and branches index several arrays together (modes, events, offsets).
+#![allow(clippy::needless_range_loop)]
 use super::group::{GroupInput, GroupOutput};
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
@@ -421,6 +423,7 @@ impl<'a> SlidingStep<'a> {
 
     /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
     /// event tolerance.
+    #[allow(clippy::too_many_arguments)]
     fn crossing(
         &self,
         t: f64,
