@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""TireLag demo: the four tire-lag models side by side, at 0, 0.5 and 20 m/s.
+"""TireLag demo: the four tire-lag models side by side, at 0, 0.5 and 20 m/s, and the
+friction limit.
 
 Two frequency sweeps (linear chirps, 0.1 Hz -> 3 Hz over 10 s), each run for every
 model and speed with fmpy's FMU2Slave:
@@ -14,16 +15,30 @@ model and speed with fmpy's FMU2Slave:
            At 0 m/s only DDT has a yaw spring-damper and so a steering moment Mz; at speed
            the slip angle alpha = delta gives Fy and the trail moment -trail*Fy.
 
+The sweeps stay below 0.2 Fmax (Fmax = muY(Fz) Fz = 40 kN at the defaults), where the
+default friction law, Brush, is exactly the linear model. Two more scenarios reach the
+friction limit (SPEC 4c), each run with the default tire (DDT) and the default law
+(Brush), and with friction = Unlimited (the linear tire) for comparison:
+
+  steerRamp  at vx = 10 m/s the wheel is steered slowly from 0 to 20 deg and back
+             (delta(t) a triangle over 10 s; steerRate = d(delta)/dt, vy = -vx sin(delta)):
+             Brush follows the brush curve up to Fy = Fmax; the linear tire goes on to
+             about Calpha sin(20 deg) = 120 kN.
+  push       at vx = 0 the hub is pushed sideways, y(t) = 0 -> +0.3 m -> -0.3 m -> 0
+             (a triangle, vy = dy/dt = +-0.12 m/s): the force-displacement loop of stick
+             and slide, with plateaus at +-Fmax; the linear tire is a spring-damper.
+
 The inputs are given at every communication point (10 ms) together with their time
 derivatives (fmi2SetRealInputDerivatives), so the FMU integrates exactly the piecewise
 linear input between the points.
 
 Writes (relative to the repository root, or to --out-dir):
 
-  out/demo.csv  long format, one row per scenario, model, speed and time point. Columns:
-                scenario (lateral|steer), model (RLT|DDT|SecondOrder|RingBody),
-                time [s], hubY [m] (lateral hub displacement of the lateral sweep, else 0),
-                steer [rad] (steer angle of the steer sweep, else 0),
+  out/demo.csv  long format, one row per scenario, model, friction law, speed and time
+                point. Columns: scenario (lateral|steer|steerRamp|push),
+                model (RLT|DDT|SecondOrder|RingBody), friction (Brush|Unlimited), time [s],
+                hubY [m] (hub displacement of the lateral sweep and the push, else 0),
+                steer [rad] (steer angle of the steer sweep and the steer ramp, else 0),
                 then the FMU inputs vx [m/s], vy [m/s], steerRate [rad/s], vsx [m/s], Fz [N]
                 and all FMU outputs Fx [N], Fy [N], Mz [N.m], My [N.m], alphaT [rad],
                 kappaT [1], deflX [m], deflY [m], deflPsi [rad].
@@ -31,6 +46,9 @@ Writes (relative to the repository root, or to --out-dir):
                 Fy(t) and the force-displacement loop Fy vs y of the lateral sweep, and
                 Fy(t) and Mz(t) of the steer sweep; one line per model. A straight line in
                 the loop is a lossless spring (RLT at 0 m/s), an ellipse a damped one.
+                Bottom row, the friction limit (DDT, Brush against Unlimited): Fy(t) and
+                Fy against the steer angle in the steer ramp, Fy(t) and Fy against the
+                hub displacement in the standstill push.
 
 Usage: .venv/bin/python scripts/demo.py [FMU] [--out-dir DIR]
        (FMU defaults to target/fmu/TireLag.fmu in the repository root)
@@ -63,6 +81,14 @@ STEP = 0.01  # communication step, s
 F_START, F_END = 0.1, 3.0  # chirp frequencies, Hz
 HUB_AMPLITUDE = 0.010  # lateral sweep: hub displacement amplitude Y, m
 STEER_AMPLITUDE = np.deg2rad(1.0)  # steer sweep: steer angle amplitude D, rad
+# The friction-limit scenarios: the default tire model and law, and the linear tire.
+LIMIT_MODEL = "DDT"
+FRICTION_LAWS = {"Unlimited": 1, "Coulomb": 2, "Brush": 3}
+LIMIT_LAWS = ("Brush", "Unlimited")
+RAMP_SPEED = 10.0  # steerRamp: vx, m/s
+RAMP_PEAK = np.deg2rad(20.0)  # steerRamp: largest steer angle, rad (reached at STOP_TIME/2)
+PUSH_PEAK = 0.3  # push: largest hub displacement, m (reached at STOP_TIME/4, 3 STOP_TIME/4)
+LIMIT_STYLE = {"Brush": ("tab:red", "-"), "Unlimited": ("0.45", "--")}
 
 INPUTS = ("vx", "vy", "steerRate", "vsx", "Fz")
 OUTPUTS = ("Fx", "Fy", "Mz", "My", "alphaT", "kappaT", "deflX", "deflY", "deflPsi")
@@ -97,7 +123,23 @@ def scenario_inputs(scenario: str, vx: float, t: np.ndarray) -> dict[str, np.nda
     if scenario == "steer":
         steer, steer_rate = chirp(t, STEER_AMPLITUDE)
         return {"hubY": zero, "steer": steer, "vy": -vx * np.sin(steer), "steerRate": steer_rate}
+    if scenario == "steerRamp":
+        steer, steer_rate = triangle(t, RAMP_PEAK, (0.0, 0.5, 1.0), (0.0, 1.0, 0.0))
+        return {"hubY": zero, "steer": steer, "vy": -vx * np.sin(steer), "steerRate": steer_rate}
+    if scenario == "push":
+        hub_y, vy = triangle(t, PUSH_PEAK, (0.0, 0.25, 0.75, 1.0), (0.0, 1.0, -1.0, 0.0))
+        return {"hubY": hub_y, "steer": zero, "vy": vy, "steerRate": zero}
     raise ValueError(scenario)
+
+
+def triangle(t: np.ndarray, peak: float, knots, values):
+    """The piecewise linear signal through (knots * STOP_TIME, values * peak), and its
+    slope (at a knot, the slope of the piece that starts there)."""
+    x = np.asarray(knots) * STOP_TIME
+    y = np.asarray(values) * peak
+    slopes = np.diff(y) / np.diff(x)
+    piece = np.clip(np.searchsorted(x, t, side="right") - 1, 0, len(slopes) - 1)
+    return np.interp(t, x, y), slopes[piece]
 
 
 class TireFmu:
@@ -107,27 +149,29 @@ class TireFmu:
         self.description = read_model_description(str(fmu_path))
         self.unzipdir = extract(str(fmu_path))
         self.vr = {v.name: v.valueReference for v in self.description.modelVariables}
-        missing = [n for n in INPUTS + OUTPUTS + ("tireModel",) if n not in self.vr]
+        missing = [n for n in INPUTS + OUTPUTS + ("tireModel", "friction") if n not in self.vr]
         if missing:
             raise SystemExit(f"{fmu_path}: the model description lacks {missing}")
 
     def close(self):
         shutil.rmtree(self.unzipdir, ignore_errors=True)
 
-    def simulate(self, model: str, vx: float, t: np.ndarray, u: dict[str, np.ndarray]) -> dict:
+    def simulate(self, model: str, vx: float, t: np.ndarray, u: dict[str, np.ndarray],
+                 friction: str = "Brush") -> dict:
         """One run of the FMU: vy and steerRate follow u (ramped exactly between the
-        points t), vx is held, vsx = 0, Fz at its start value (the nominal load)."""
+        points t), vx is held, vsx = 0, Fz at its start value (the nominal load);
+        friction is the law of SPEC 4c (Brush, the FMU's default, unless told)."""
         vr = self.vr
         slave = FMU2Slave(
             guid=self.description.guid,
             unzipDirectory=self.unzipdir,
             modelIdentifier=self.description.coSimulation.modelIdentifier,
-            instanceName=f"{model}_{vx:g}",
+            instanceName=f"{model}_{friction}_{vx:g}",
         )
         slave.instantiate()
         try:
             slave.setupExperiment(startTime=float(t[0]), stopTime=float(t[-1]))
-            slave.setInteger([vr["tireModel"]], [MODELS[model]])
+            slave.setInteger([vr["tireModel"], vr["friction"]], [MODELS[model], FRICTION_LAWS[friction]])
             slave.enterInitializationMode()
             slave.exitInitializationMode()
 
@@ -159,7 +203,12 @@ def run_all(fmu: TireFmu, t: np.ndarray) -> list[dict]:
             u = scenario_inputs(scenario, vx, t)
             for model in MODELS:
                 y = fmu.simulate(model, vx, t, u)
-                runs.append({"scenario": scenario, "model": model, "speed": vx, **u, **y})
+                runs.append({"scenario": scenario, "model": model, "friction": "Brush", "speed": vx, **u, **y})
+    for scenario, vx in (("steerRamp", RAMP_SPEED), ("push", 0.0)):
+        u = scenario_inputs(scenario, vx, t)
+        for law in LIMIT_LAWS:
+            y = fmu.simulate(LIMIT_MODEL, vx, t, u, friction=law)
+            runs.append({"scenario": scenario, "model": LIMIT_MODEL, "friction": law, "speed": vx, **u, **y})
     return runs
 
 
@@ -167,23 +216,33 @@ def write_csv(path: Path, t: np.ndarray, runs: list[dict]):
     columns = ("hubY", "steer") + INPUTS + OUTPUTS
     with path.open("w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(("scenario", "model", "time") + columns)
+        writer.writerow(("scenario", "model", "friction", "time") + columns)
         for run in runs:
             data = np.column_stack([t] + [run[c] for c in columns])
             for row in data:
-                writer.writerow([run["scenario"], run["model"]] + [f"{v:.10g}" for v in row])
+                writer.writerow([run["scenario"], run["model"], run["friction"]] + [f"{v:.10g}" for v in row])
 
 
-def find(runs, scenario, vx, model):
-    return next(r for r in runs if r["scenario"] == scenario and r["speed"] == vx and r["model"] == model)
+def find(runs, scenario, vx, model, friction="Brush"):
+    return next(r for r in runs if r["scenario"] == scenario and r["speed"] == vx and r["model"] == model
+                and r["friction"] == friction)
+
+
+def friction_limit(description, Fz: float) -> float:
+    """Fmax = muY(Fz) Fz, muY(Fz) = muY max(0, 1 + muLoadSensitivity (Fz/Fz0 - 1)) (SPEC 4c)."""
+    start = {v.name: float(v.start) for v in description.modelVariables
+             if v.start is not None and v.type == "Real"}
+    mu = start["muY"] * max(0.0, 1.0 + start["muLoadSensitivity"] * (Fz / start["Fz0"] - 1.0))
+    return mu * Fz
 
 
 LOOP_WINDOW = 1.0  # s: the force-displacement loops show the last second (~2.7-3 Hz)
 
 
-def plot(path: Path, t: np.ndarray, runs: list[dict], calpha: float):
-    fig, axes = plt.subplots(len(SPEEDS) + 1, 4, figsize=(20, 13))
-    time_axes = [ax for ax in axes.flat if ax not in axes[1:, 1]]
+def plot(path: Path, t: np.ndarray, runs: list[dict], calpha: float, fmax: float):
+    fig, axes = plt.subplots(len(SPEEDS) + 2, 4, figsize=(20, 16.5))
+    limit_row = len(SPEEDS) + 1
+    time_axes = [ax for ax in axes.flat if ax not in axes[1:, 1] and ax is not axes[limit_row, 3]]
     for ax in time_axes[1:]:
         ax.sharex(time_axes[0])
 
@@ -243,14 +302,15 @@ def plot(path: Path, t: np.ndarray, runs: list[dict], calpha: float):
                 ax.set_ylim(-1, 1)
             ax.set_title(f"vx = {vx:g} m/s, {title}")
             ax.set_ylabel(unit)
+    plot_limit_row(axes[limit_row], t, runs, calpha, fmax)
     for ax in axes.flat:
         ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
-        if ax is not axes[-1, 1]:
-            ax.set_xlabel("time t [s]")
+    for ax in (axes[limit_row - 1, 0], axes[limit_row - 1, 2], axes[limit_row - 1, 3],
+               axes[limit_row, 0], axes[limit_row, 2]):
+        ax.set_xlabel("time t [s]")
 
     handles, labels = [], []
-    for ax in axes.flat:  # one legend entry per distinct line label
+    for ax in axes[:limit_row].flat:  # one legend entry per distinct line label (the sweeps)
         for h, lab in zip(*ax.get_legend_handles_labels()):
             if lab not in labels:
                 handles.append(h)
@@ -259,12 +319,65 @@ def plot(path: Path, t: np.ndarray, runs: list[dict], calpha: float):
     fig.suptitle(
         f"TireLag, default parameters: four tire-lag models under a {F_START:g}→{F_END:g} Hz chirp "
         f"(lateral hub shake ±{1e3 * HUB_AMPLITUDE:g} mm; steering ±{np.rad2deg(STEER_AMPLITUDE):g}° "
-        "while the hub moves straight at vx)",
+        "while the hub moves straight at vx);\nbottom row: the friction limit of the default tire "
+        f"(DDT, Brush) against the linear tire (Unlimited), Fmax = μY(Fz)·Fz = {fmax / 1e3:g} kN",
         fontsize=13,
     )
-    fig.tight_layout(rect=(0, 0.03, 1, 0.98))
+    fig.tight_layout(rect=(0, 0.025, 1, 0.985))
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def plot_limit_row(axes, t, runs, calpha, fmax):
+    """The friction limit: Brush (the default law) against Unlimited, default tire (DDT)."""
+    ax_ft, ax_fd, ax_pt, ax_py = axes
+    for law in LIMIT_LAWS:
+        colour, dash = LIMIT_STYLE[law]
+        label = f"{LIMIT_MODEL}, friction = {law}" + (" (default)" if law == "Brush" else " (linear tire)")
+        ramp = find(runs, "steerRamp", RAMP_SPEED, LIMIT_MODEL, law)
+        push = find(runs, "push", 0.0, LIMIT_MODEL, law)
+        ax_ft.plot(t, 1e-3 * ramp["Fy"], color=colour, ls=dash, lw=1.6, label=label)
+        ax_fd.plot(np.rad2deg(ramp["steer"]), 1e-3 * ramp["Fy"], color=colour, ls=dash, lw=1.6)
+        ax_pt.plot(t, 1e-3 * push["Fy"], color=colour, ls=dash, lw=1.6)
+        ax_py.plot(1e3 * push["hubY"], 1e-3 * push["Fy"], color=colour, ls=dash, lw=1.6)
+    # the brush curve Fmax (3t - 3t^2 + t^3), t = min(1, Calpha |alpha| / (3 Fmax)), alpha = sin(delta)
+    delta = np.linspace(0.0, RAMP_PEAK, 200)
+    tt = np.minimum(1.0, calpha * np.sin(delta) / (3.0 * fmax))
+    ax_fd.plot(np.rad2deg(delta), 1e-3 * fmax * (3 * tt - 3 * tt**2 + tt**3), color="black", lw=0.9, ls=":",
+               label="brush curve Fmax(3τ - 3τ² + τ³) (steady state)")
+    for ax in axes:
+        for sign in (1, -1) if ax in (ax_pt, ax_py) else (1,):
+            ax.axhline(sign * 1e-3 * fmax, color="black", lw=0.8, alpha=0.6, ls="-.",
+                       label="±Fmax = μY(Fz)·Fz" if sign == 1 else None)
+        ax.set_ylabel("Fy [kN]")
+    ax_ft.set_ylim(-5, 1e-3 * calpha * np.sin(RAMP_PEAK) * 1.08)
+    ax_fd.set_ylim(ax_ft.get_ylim())
+    ax_ft.set_title(f"vx = {RAMP_SPEED:g} m/s, steer ramp δ = 0→{np.rad2deg(RAMP_PEAK):g}°→0: Fy(t)")
+    ax_fd.set_title(f"vx = {RAMP_SPEED:g} m/s, steer ramp: Fy vs steer angle δ")
+    ax_fd.set_xlabel("steer angle δ [deg]  (slip angle α = sin δ)")
+    ax_ft.legend(loc="upper left", fontsize=9)
+    ax_fd.legend(loc="upper left", fontsize=9)
+    ax_pt.set_title(f"vx = 0, hub pushed y = 0→+{PUSH_PEAK:g}→-{PUSH_PEAK:g}→0 m: Fy(t)")
+    ax_py.set_title("vx = 0, push: Fy vs hub displacement y")
+    ax_py.set_xlabel("hub lateral displacement y [mm]")
+    unlimited = np.max(np.abs(find(runs, "push", 0.0, LIMIT_MODEL, "Unlimited")["Fy"]))
+    for ax in (ax_pt, ax_py):
+        ax.set_ylim(-1.5e-3 * fmax, 1.5e-3 * fmax)
+        ax.text(0.98, 0.03, f"Unlimited peaks at ±{unlimited / 1e3:.0f} kN (off scale)", transform=ax.transAxes,
+                ha="right", va="bottom", fontsize=9, color="0.3", bbox=dict(facecolor="white", edgecolor="none"))
+
+
+def limit_summary(t, runs, fmax: float) -> str:
+    """One line on the friction limit: where Brush saturates, what the linear tire gives."""
+    peak = {(s, law): np.max(np.abs(find(runs, s, vx, LIMIT_MODEL, law)["Fy"]))
+            for s, vx in (("steerRamp", RAMP_SPEED), ("push", 0.0)) for law in LIMIT_LAWS}
+    chirps = max(np.max(np.abs(r["Fy"])) for r in runs if r["scenario"] in ("lateral", "steer"))
+    return (f"friction limit: Fy saturates at muY(Fz) Fz = {fmax / 1e3:.1f} kN with Brush (peak "
+            f"{peak['steerRamp', 'Brush'] / 1e3:.1f} kN in the {np.rad2deg(RAMP_PEAK):g} deg steer ramp at "
+            f"{RAMP_SPEED:g} m/s, {peak['push', 'Brush'] / 1e3:.1f} kN in the standstill push); the linear "
+            f"(Unlimited) tire would give {peak['steerRamp', 'Unlimited'] / 1e3:.1f} kN and "
+            f"{peak['push', 'Unlimited'] / 1e3:.1f} kN. (The chirps peak at {chirps / fmax:.2f} Fmax: "
+            "below 0.2 Fmax Brush is exactly linear.)")
 
 
 def summary(t, runs):
@@ -303,6 +416,7 @@ def main(argv=None):
     try:
         runs = run_all(fmu, t)
         calpha = next(v for v in fmu.description.modelVariables if v.name == "Calpha").start
+        fmax = friction_limit(fmu.description, float(find(runs, "push", 0.0, LIMIT_MODEL)["Fz"][0]))
     finally:
         fmu.close()
     elapsed = time.perf_counter() - started
@@ -310,12 +424,14 @@ def main(argv=None):
     csv_path = args.out_dir / "demo.csv"
     png_path = args.out_dir / "demo.png"
     write_csv(csv_path, t, runs)
-    plot(png_path, t, runs, float(calpha))
+    plot(png_path, t, runs, float(calpha), fmax)
 
     print(f"FMU: {args.fmu}")
-    print(f"simulated {len(runs)} runs (2 sweeps x {len(SPEEDS)} speeds x {len(MODELS)} models), "
+    print(f"simulated {len(runs)} runs (2 sweeps x {len(SPEEDS)} speeds x {len(MODELS)} models, and "
+          f"2 friction-limit scenarios x {len(LIMIT_LAWS)} laws), "
           f"{len(t) - 1} steps of {STEP:g} s each, in {elapsed:.2f} s")
     print(summary(t, runs))
+    print(limit_summary(t, runs, fmax))
     print(f"CSV: {csv_path.resolve()}")
     print(f"PNG: {png_path.resolve()}")
 

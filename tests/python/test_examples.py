@@ -31,9 +31,11 @@ sys.path.insert(0, str(EXAMPLES))
 
 import bode_models  # noqa: E402
 import handling_tire_lag  # noqa: E402
+import parked_on_slope  # noqa: E402
 import snowblower_rolling  # noqa: E402
 import snowblower_standstill  # noqa: E402
 import sweep  # noqa: E402
+import wheel_loader_steering  # noqa: E402
 from cosim import CoSimulation, Multisine, frequency_response, load_fmu, snowblower  # noqa: E402
 from cosim.cli import read_csv  # noqa: E402
 
@@ -448,3 +450,70 @@ def test_sweep_on_a_local_cluster_equals_the_serial_run(example_fmu, out_dir):
     assert_outputs(out_dir, "sweep.png", "sweep.csv")
     csv_rows = read_csv(out_dir / "sweep.csv")
     assert [float(r["yaw_frequency_Hz"]) for r in csv_rows] == [r["yaw_frequency_Hz"] for r in serial_rows]
+
+
+# --------------------------------------------------------------------------- friction (SPEC 4c)
+
+def mu_of_load(start, name, Fz):
+    """SPEC 4c: mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1)), from the FMU's start values."""
+    return start[name] * (1.0 + start["muLoadSensitivity"] * (Fz / start["Fz0"] - 1.0))
+
+
+def test_wheel_loader_torque_angle_loops(example_fmu, out_dir):
+    """Aalborg wheel loader tire (SPEC 9) twisted +-40 deg at 0.2 Hz at standstill, DDT.
+    Unlimited: the elastic peak C_yaw A, and the damper's loop of the linear yaw lag at
+    rho = 0 (duPsi/dt = r, M = C uPsi + D r: area pi D w A^2). Coulomb and Brush: the
+    moment plateaus at boreRadius muY(Fz) Fz, and the loop dissipates."""
+    res = run_example(wheel_loader_steering, example_fmu, out_dir)
+    A, w = math.radians(40.0), 2 * math.pi * 0.2
+    C, D = 45000.0, 400.0
+    r = res["results"]
+    assert r["Unlimited"]["peak"] == pytest.approx(C * A, rel=0.01)            # 31.4 kN.m
+    assert r["Unlimited"]["energy"] == pytest.approx(math.pi * D * w * A ** 2, rel=1e-3)
+    # the bore radius is the mean distance from the centre of the 0.45 m x 0.30 m footprint
+    x = (np.arange(600) + 0.5) / 600 * 0.225
+    y = (np.arange(400) + 0.5) / 400 * 0.15
+    assert res["bore_radius"] == pytest.approx(np.hypot(*np.meshgrid(x, y)).mean(), rel=1e-5)
+    start = load_fmu(example_fmu).start_values
+    Fz = 17600.0 * 9.81 / 4
+    plateau = res["bore_radius"] * mu_of_load(start, "muY", Fz) * Fz
+    for law in ("Coulomb", "Brush"):
+        assert r[law]["peak"] == pytest.approx(plateau, rel=1e-6), law
+        assert np.max(np.abs(res["Mz"][law])) <= plateau * (1 + 1e-9), law     # never beyond it
+        assert r[law]["energy"] > r["Unlimited"]["energy"] > 0.0, law
+    assert_outputs(out_dir, "wheel_loader_steering.png", "wheel_loader_steering.csv")
+    rows = read_csv(out_dir / "wheel_loader_steering.csv")
+    assert len(rows) == len(res["t"])
+    assert max(abs(float(row["Mz_Coulomb_Nm"])) for row in rows) == r["Coulomb"]["peak"]
+
+
+def test_parked_on_slope_holds_without_creep_and_slides_at_the_physics(example_fmu, out_dir):
+    """A 1500 kg car on four locked DDT tires, 20 % force ripple at 25 Hz. At a 20 % grade it
+    does not creep; at a 100 % grade (tan(theta) > muX(Fz)) it slides with
+    a = g (sin(theta) - muX(Fz) cos(theta)), Fz = m g cos(theta)/4 per wheel."""
+    res = run_example(parked_on_slope, example_fmu, out_dir)
+    m, g = 1500.0, 9.81
+    C_x = 80000.0 / 0.2                                   # Ckappa/sigmaX, per tire
+    start = dict(load_fmu(example_fmu).start_values, Fz0=4000.0, muX=0.8)
+    theta = math.atan(0.2)
+    for law in ("Brush", "Coulomb"):
+        hold = res["hold"][law]
+        assert abs(hold["slope"]) < 1e-9, (law, hold)                        # m/s
+        assert abs(hold["mean_change"]) < 1e-6, (law, hold)                  # m, period means
+        assert hold["utilisation"] < 1.0, (law, hold)
+        # the elastic deflection carries the grade: 4 C_x deflX = m g sin(theta)
+        assert hold["deflX_mean"] == pytest.approx(m * g * math.sin(theta) / (4 * C_x), rel=1e-6), law
+    theta = math.atan(1.0)
+    Fz = m * g * math.cos(theta) / 4
+    mu = mu_of_load(start, "muX", Fz)
+    assert math.tan(theta) > mu
+    a = g * (math.sin(theta) - mu * math.cos(theta))
+    for law in ("Brush", "Coulomb"):
+        slide = res["slide"][law]
+        assert slide["a"] == pytest.approx(a, rel=1e-3), (law, slide)
+        lo, hi = slide["Fx_over_Fmax"]
+        assert lo == pytest.approx(-1.0, abs=1e-9) and hi == pytest.approx(-1.0, abs=1e-9), (law, slide)
+    assert_outputs(out_dir, "parked_on_slope.png", "parked_on_slope.csv")
+    rows = read_csv(out_dir / "parked_on_slope.csv")
+    assert {(row["case"], row["friction"]) for row in rows} == {(c, law) for c in ("holds", "slides")
+                                                               for law in ("Brush", "Coulomb")}

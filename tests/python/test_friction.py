@@ -410,6 +410,25 @@ def load_scales(p, Fz):
     return np.array([lim["x"], lim["y"], lim["psi"] + p["trail"] * lim["y"], p["Re"] * lim["x"]])
 
 
+@pytest.mark.parametrize("h", [1.0, 5.0])
+@pytest.mark.parametrize("law", LAWS)
+@pytest.mark.parametrize("model", ref.MODEL_NAMES)
+def test_long_sticking_steps_stay_exact(make_friction_tire, model, law, h):
+    """Every element sticking (3 % of Fmax at 1.5 Fz0) with steps of 1 and 5 s, long
+    against the tire's time constants: the forces are the linear steady state
+    Calpha(Fz) alpha to 1e-9 at every step (SPEC 6), as with the Unlimited law."""
+    Fz, vx = 1.5 * FZ0, 10.0
+    p = ref.parameters()
+    alpha = 0.03 * fr.limits(fr.parameters(), Fz)["y"] / ref.cornering_stiffness_at(p, Fz)
+    tire = make_friction_tire(model, law, vx=vx, vy=-vx * alpha, Fz=Fz)
+    expected = ref.cornering_stiffness_at(p, Fz) * alpha
+    for k in range(int(40.0 / h)):
+        tire.step(h)
+        if k * h >= 10.0:
+            Fy = tire.get("Fy")[0]
+            assert abs(Fy / expected - 1.0) <= 1e-9, (k, h, Fy, expected)
+
+
 @pytest.mark.parametrize("law", LAWS)
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_step_size_independence_with_events(make_friction_tire, model, law):
