@@ -597,7 +597,11 @@ impl<'a> SlidingStep<'a> {
     /// midpoint step of the finest row).
     fn longest_substep(&self) -> f64 {
         let fastest = self.friction.fastest_rate(self.system);
-        if fastest > 0.0 { 4.0 / fastest } else { f64::INFINITY }
+        if fastest > 0.0 {
+            4.0 / fastest
+        } else {
+            f64::INFINITY
+        }
     }
 }
 
