@@ -117,11 +117,18 @@ fn run_sequence(fmu: &Fmi2Binding, rng: &mut Rng, callbacks: &fmi2CallbackFuncti
     }
     let mut statuses = Vec::new();
     let mut time = 0.0;
-    // Most sequences start from step mode with a random model, where most code lives.
+    // Most sequences start from step mode with a random model and friction law (often
+    // with friction low enough to slide), where most code lives.
     if !rng.chance(4) {
         let model = [1 + rng.below(4) as i32];
+        let friction = [1 + rng.below(3) as i32];
+        let mu = [0.01 * rng.below(80) as f64; 2];
         unsafe {
             fmu.fmi2SetInteger(c, [100u32].as_ptr(), 1, model.as_ptr());
+            fmu.fmi2SetInteger(c, [121u32].as_ptr(), 1, friction.as_ptr());
+            if rng.chance(2) {
+                fmu.fmi2SetReal(c, [122u32, 123].as_ptr(), 2, mu.as_ptr());
+            }
             fmu.fmi2EnterInitializationMode(c);
             fmu.fmi2ExitInitializationMode(c);
         }
