@@ -35,6 +35,19 @@ impl ContactMode {
     }
 }
 
+/// How a friction limit shapes the outputs at the current states and inputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LimitEffect {
+    /// Every element sticks inside its limit: the linear model's outputs.
+    None,
+    /// Spring elements slide: the outputs are the linear model's function of the states,
+    /// which move with the limits.
+    OnTheStates,
+    /// A force is put on its limit in the outputs themselves (a damper's force on its
+    /// ellipse, or a load fallen below a spring's force).
+    OnTheOutputs,
+}
+
 /// Why a step was refused; the tire is unchanged.
 #[derive(Clone, Debug, PartialEq)]
 pub enum StepError {
@@ -342,15 +355,34 @@ impl Tire {
         y
     }
 
-    /// Whether a friction limit acts at the current states and inputs (a group slides or
-    /// is on its limit): the outputs are then not the linear model's.
-    fn limit_acts(&mut self) -> bool {
+    /// How a friction limit shapes the outputs at the current states and inputs.
+    fn limit_effect(&mut self) -> LimitEffect {
         let (inputs, rates) = (self.inputs, self.input_rates);
         let (mut x, sliders) = (self.states, self.friction.as_ref().map(|f| f.state));
+        let damped = self.friction.as_ref().is_some_and(|f| f.damped());
         match (self.limited_system(&inputs, &rates), sliders) {
-            (Some(step), Some(mut sliders)) => !step.prepare(&mut x, &mut sliders),
-            _ => false,
+            (Some(step), Some(mut sliders)) => {
+                if step.prepare(&mut x, &mut sliders) {
+                    LimitEffect::None
+                } else if x == self.states && !(damped && sliders.any_sliding()) {
+                    LimitEffect::OnTheStates
+                } else {
+                    LimitEffect::OnTheOutputs
+                }
+            }
+            _ => LimitEffect::None,
         }
+    }
+
+    /// Output rates where sliding springs change only how the states move: the linear
+    /// outputs' rates along the limited motion, `C dx/dt + D du/dt`.
+    fn sliding_output_rates(&mut self) -> OutputVector {
+        let (inputs, rates) = (self.inputs, self.input_rates);
+        let (x, sliders) = (self.states, self.friction.as_ref().expect("a limit acts").state);
+        let step = self.limited_system(&inputs, &rates).expect("a limit acts");
+        let (x_rates, _) = step.rates_at(&x, &sliders);
+        let du = Self::driving_inputs(&rates);
+        step.system.c * x_rates + step.system.d * du
     }
 
     /// Output rates where a limit acts: a central difference along the motion with the
@@ -405,8 +437,10 @@ impl Tire {
     /// Time derivatives of the outputs at the current states, inputs and input rates
     /// (exact for a constant vx and normal load).
     pub fn output_rates(&mut self) -> OutputVector {
-        if self.limit_acts() {
-            return self.limited_output_rates();
+        match self.limit_effect() {
+            LimitEffect::None => {}
+            LimitEffect::OnTheStates => return self.sliding_output_rates(),
+            LimitEffect::OnTheOutputs => return self.limited_output_rates(),
         }
         let u = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
@@ -420,7 +454,9 @@ impl Tire {
     /// a central difference gives), and the load enters through the length factors (zero
     /// off the ground, where they are fixed).
     pub fn output_sensitivity(&mut self, input: Input) -> OutputVector {
-        if self.limit_acts() {
+        // Sliding springs change how the states move, not how the outputs depend on the
+        // inputs: the linear sensitivities stay exact.
+        if self.limit_effect() == LimitEffect::OnTheOutputs {
             return self.limited_output_sensitivity(input);
         }
         if let Some(driving) = input.driving() {

@@ -595,3 +595,54 @@ def test_reference_damped_projection():
     lam_x = (Tx[out] / Fx[out] - 1.0) * Lx ** 2 / dx
     assert np.all(lam_y >= 0.0)
     assert np.allclose(lam_y, lam_x, rtol=1e-10, atol=1e-12)
+
+
+# --------------------------------------------------------------------------- derivatives
+
+def test_output_derivative_is_zero_on_a_plateau_and_exact_while_sliding(make_friction_tire):
+    """RLT, Coulomb, at standstill pushed past its limit: on the plateau Fy is held, so
+    fmi2GetRealOutputDerivatives gives dFy/dt = 0; the deflection's rate is then exactly 0
+    too (the slider takes the motion). SecondOrder sliding: the output derivatives equal
+    the difference quotient of two tiny steps."""
+    vy = 0.1
+    rlt = make_friction_tire("RLT", "Coulomb", vx=0.0, vy=vy)
+    rlt.run(np.zeros((1, 3)) + [vy, 0.0, 0.0], 2.0)       # 0.2 m: past Fmax/C_y = 0.114 m
+    Fy, = rlt.get("Fy")
+    assert Fy == pytest.approx(-0.8 * FZ0, rel=1e-12)
+    rates = rlt.fmu.getRealOutputDerivatives([ref.OUTPUT_VR["Fy"], ref.OUTPUT_VR["deflY"]], [1, 1])
+    assert rates == [0.0, 0.0]
+
+    tire = make_friction_tire("SecondOrder", "Brush", vx=3.0, vy=-1.5, vsx=0.8)
+    tire.run(np.array([[-1.5, 0.0, 0.8]]), 0.5)
+    names = ["Fx", "Fy", "Mz", "My", "deflX", "deflY"]
+    vrs = [ref.OUTPUT_VR[n] for n in names]
+    analytic = np.array(tire.fmu.getRealOutputDerivatives(vrs, [1] * len(vrs)))
+    y0 = tire.get(*names)
+    dt = 1e-6
+    tire.step(dt)
+    difference = (tire.get(*names) - y0) / dt
+    scale = np.maximum(np.abs(analytic), 1e-3 * np.abs(y0) / 0.01)
+    assert np.all(np.abs(difference - analytic) <= 1e-4 * scale), (analytic, difference)
+
+
+def test_directional_derivative_is_zero_along_a_saturated_direction(make_friction_tire):
+    """DDT at standstill, Coulomb: steered fast enough that the yaw moment sits on its
+    limit boreRadius muY Fz, dMz/dsteerRate is 0 (the unlimited tire gives dampingPsi);
+    pushed sideways past the lateral limit, dFy/dvy is 0 (unlimited: -dampingY)."""
+    tire = make_friction_tire("DDT", "Coulomb", vx=0.0, steerRate=0.5)
+    tire.step(1.0)                                          # 0.5 rad: far past the yaw limit
+    limit = fr.limits(fr.parameters(), FZ0)["psi"]
+    Mz, = tire.get("Mz")
+    assert abs(Mz) == pytest.approx(limit, rel=1e-12)
+    dMz = tire.fmu.getDirectionalDerivative([ref.OUTPUT_VR["Mz"]], [ref.INPUT_VR["steerRate"]], [1.0])
+    assert abs(dMz[0]) <= 1e-6 * P["dampingPsi"], dMz
+
+    linear = make_friction_tire("DDT", "Unlimited", vx=0.0, steerRate=0.5)
+    linear.step(1.0)
+    dMz_linear = linear.fmu.getDirectionalDerivative([ref.OUTPUT_VR["Mz"]], [ref.INPUT_VR["steerRate"]], [1.0])
+    assert dMz_linear[0] == pytest.approx(-P["dampingPsi"], rel=1e-12)
+
+    side = make_friction_tire("DDT", "Coulomb", vx=0.0, vy=0.2)
+    side.step(1.0)                                          # 0.2 m: past Fmax/C_y
+    dFy = side.fmu.getDirectionalDerivative([ref.OUTPUT_VR["Fy"]], [ref.INPUT_VR["vy"]], [1.0])
+    assert abs(dFy[0]) <= 1e-6 * P["dampingY"], dFy

@@ -257,6 +257,12 @@ impl Friction {
         self.state = SliderState::AT_REST;
     }
 
+    /// Whether any element has a damper (DDT): its sliding force is then part of the
+    /// outputs, not only of the state motion.
+    pub fn damped(&self) -> bool {
+        self.damped
+    }
+
     /// An estimate of the fastest rate in the system with its sliders, 1/s: diagonal
     /// rates, the frequencies of coupled pairs, and a sliding damper's `C / D`.
     pub fn fastest_rate(&self, system: &StateSpace) -> f64 {
