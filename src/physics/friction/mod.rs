@@ -197,6 +197,8 @@ pub struct Friction {
     present_count: usize,
     /// Whether any element has a damper.
     damped: bool,
+    /// The largest `C / D` of the damped elements (how fast a sliding damper relaxes), 1/s.
+    fastest_slide_rate: f64,
     pub elements: ContactElements,
     pub state: SliderState,
 }
@@ -230,6 +232,12 @@ impl Friction {
             },
             present_count: elements.iter().flatten().count(),
             damped: elements.iter().flatten().any(|e| e.damping > 0.0),
+            fastest_slide_rate: elements
+                .iter()
+                .flatten()
+                .filter(|e| e.damping > 0.0)
+                .map(|e| e.stiffness / e.damping)
+                .fold(0.0, f64::max),
             group_members: Group::ALL.map(|g| {
                 let mut members = [false; Direction::COUNT];
                 for &d in g.directions() {
@@ -275,12 +283,28 @@ impl Friction {
                 fastest = fastest.max((a[(i, j)] * a[(j, i)]).abs().sqrt());
             }
         }
-        for e in &self.present[..self.present_count] {
-            if e.damping > 0.0 {
-                fastest = fastest.max(e.stiffness / e.damping);
+        fastest.max(self.fastest_slide_rate)
+    }
+
+    /// Whether `h * fastest_rate <= MAX_STICKING_STEP`, without square roots.
+    fn short_against_dynamics(&self, system: &StateSpace, h: f64) -> bool {
+        let limit = MAX_STICKING_STEP / h;
+        if self.fastest_slide_rate > limit {
+            return false;
+        }
+        let (n, a) = (system.states, &system.a);
+        let limit_squared = limit * limit;
+        for i in 0..n {
+            if a[(i, i)].abs() > limit {
+                return false;
+            }
+            for j in 0..i {
+                if (a[(i, j)] * a[(j, i)]).abs() > limit_squared {
+                    return false;
+                }
             }
         }
-        fastest
+        true
     }
 
     /// Off the ground for `relaxation_times` lift-off relaxation times: the offsets
@@ -310,7 +334,7 @@ impl Friction {
     ) -> bool {
         // The bound of a force over the step from its ends is trusted where the step is
         // short against the dynamics; a longer step goes to the event-locating path.
-        if self.state.any_sliding() || h * self.fastest_rate(system) > MAX_STICKING_STEP {
+        if self.state.any_sliding() || !self.short_against_dynamics(system, h) {
             return false;
         }
         let n = system.states;
