@@ -53,7 +53,7 @@ class Tire:
 
         self.md = model_description
         self.model = model
-        self.params = ref.parameters(**(params or {}))
+        self.params = fr.parameters(**(params or {}))
         self.fmu = FMU2Slave(guid=model_description.guid, unzipDirectory=unzipdir,
                              modelIdentifier=model_description.coSimulation.modelIdentifier,
                              instanceName=name)
@@ -65,7 +65,8 @@ class Tire:
             self.fmu.setInteger([fr.FRICTION_VR], [fr.FRICTION_LAWS[friction]])
         if params:
             names = list(params)
-            self.fmu.setReal([ref.PARAMETER_VR[n] for n in names], [float(params[n]) for n in names])
+            vrs = {**ref.PARAMETER_VR, **fr.FRICTION_PARAMETER_VR}
+            self.fmu.setReal([vrs[n] for n in names], [float(params[n]) for n in names])
         self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
         self.t = 0.0

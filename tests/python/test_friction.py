@@ -35,8 +35,7 @@ import pytest
 import friction_reference as fr
 import harness
 import reference as ref
-from conftest import (_IN_ALL, _IN_DRIVING, _OUT_ALL, Tire, _uint_array, assert_close_run,
-                      has_friction, random_steps, seed)
+from conftest import Tire, assert_close_run, has_friction, random_steps, seed
 
 LAWS = ["Coulomb", "Brush"]
 P = fr.parameters()
@@ -49,60 +48,17 @@ FRICTION_PARAMS = {"muX": 0.9, "muY": 0.75, "muLoadSensitivity": -0.15, "boreRad
 
 # --------------------------------------------------------------------------- FMU access
 
-class FrictionTire(Tire):
-    """conftest.Tire with a friction law and friction parameters (muX, muY,
-    muLoadSensitivity, boreRadius) set before initialisation, next to the model and the
-    other parameters. (conftest.Tire takes only the parameters of reference.PARAMETER_VR.)"""
-
-    def __init__(self, model_description, unzipdir, model, friction, params=None,
-                 name="tire", **inputs):
-        import ctypes
-
-        from fmpy.fmi2 import FMU2Slave
-
-        params = dict(params or {})
-        self.md = model_description
-        self.model = model
-        self.friction = friction
-        self.params = fr.parameters(**params)
-        self.fmu = FMU2Slave(guid=model_description.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=model_description.coSimulation.modelIdentifier,
-                             instanceName=name)
-        self.fmu.instantiate()
-        self._alive = True
-        self.fmu.setupExperiment(startTime=0.0)
-        self.fmu.setInteger([ref.MODEL_VR, fr.FRICTION_VR],
-                            [ref.MODELS[model], fr.FRICTION_LAWS[friction]])
-        if params:
-            vr = {**ref.PARAMETER_VR, **fr.FRICTION_PARAMETER_VR}
-            self.fmu.setReal([vr[n] for n in params], [float(v) for v in params.values()])
-        self.fmu.enterInitializationMode()
-        self.fmu.exitInitializationMode()
-        self.t = 0.0
-        # the buffers of conftest.Tire's fast loops
-        self._vr_all = _uint_array(_IN_ALL)
-        self._vr_drv = _uint_array(_IN_DRIVING)
-        self._vr_out = _uint_array(_OUT_ALL)
-        self._val_all = (ctypes.c_double * 5)()
-        self._val_drv = (ctypes.c_double * 3)()
-        self._rate_drv = (ctypes.c_double * 3)()
-        self._order_drv = (ctypes.c_int * 3)(1, 1, 1)
-        self._out = (ctypes.c_double * 9)()
-        self._out_np = np.ctypeslib.as_array(self._out)
-        if inputs:
-            self.set(**inputs)
-
-
 @pytest.fixture
 def make_friction_tire(model_description, unzipdir):
-    """make_friction_tire(model, friction, params=None, vx=..., Fz=...) -> FrictionTire."""
+    """make_friction_tire(model, friction, params=None, vx=..., Fz=...) -> conftest.Tire
+    with that friction law and parameters (friction ones included)."""
     if not has_friction(model_description):
         pytest.fail("the FMU declares no `friction` variable (SPEC 4c): rebuild it")
     tires = []
 
     def factory(model, friction, params=None, **inputs):
-        tire = FrictionTire(model_description, unzipdir, model, friction, params,
-                            name=f"friction{len(tires)}", **inputs)
+        tire = Tire(model_description, unzipdir, model=model, params=params,
+                    name=f"friction{len(tires)}", friction=friction, **inputs)
         tires.append(tire)
         return tire
 

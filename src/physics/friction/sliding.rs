@@ -119,18 +119,22 @@ impl<'a> SlidingStep<'a> {
         x
     }
 
+    /// `sum w_i v_i` over the branches of direction `d` in `values` (deflections or rates).
+    fn weighted_over_branches(&self, values: &Vector, d: usize) -> f64 {
+        self.friction
+            .branches
+            .iter()
+            .enumerate()
+            .map(|(i, b)| b.stiffness_fraction * values[branch_index(d, i)])
+            .sum()
+    }
+
     /// The model's states with each element's state the weighted sum of its branches.
     fn model_states(&self, z: &Vector) -> StateVector {
         let mut x = StateVector::from_column_slice(&z[..MAX_STATES]);
         for (d, element) in self.friction.elements.iter().enumerate() {
             if let Some(element) = element {
-                x[element.state] = self
-                    .friction
-                    .branches
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| b.stiffness_fraction * z[branch_index(d, i)])
-                    .sum();
+                x[element.state] = self.weighted_over_branches(z, d);
             }
         }
         x
@@ -198,13 +202,7 @@ impl<'a> SlidingStep<'a> {
         }
         for (d, element) in self.friction.elements.iter().enumerate() {
             if let Some(element) = element {
-                x_rates[element.state] = self
-                    .friction
-                    .branches
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| b.stiffness_fraction * rates[branch_index(d, i)])
-                    .sum();
+                x_rates[element.state] = self.weighted_over_branches(&rates, d);
             }
         }
         rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
