@@ -49,8 +49,9 @@ def output_paths(out_dir: Path, name: str) -> tuple[Path, Path]:
 def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:
     """A CSV with full float precision (repr), so that numbers read back bit for bit."""
     def cell(v):
+        # numpy floats are floats too, but their repr names the type (np.float64(0.5)).
         if isinstance(v, float):
-            return repr(v) if math.isfinite(v) else str(v)
+            return repr(float(v)) if math.isfinite(v) else str(float(v))
         return v
 
     with open(path, "w", newline="") as f:

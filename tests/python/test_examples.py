@@ -517,3 +517,14 @@ def test_parked_on_slope_holds_without_creep_and_slides_at_the_physics(example_f
     rows = read_csv(out_dir / "parked_on_slope.csv")
     assert {(row["case"], row["friction"]) for row in rows} == {(c, law) for c in ("holds", "slides")
                                                                for law in ("Brush", "Coulomb")}
+
+
+def test_csv_cells_are_plain_numbers(tmp_path):
+    """write_csv writes numpy floats as plain numbers that read back bit for bit."""
+    from cosim.cli import write_csv
+
+    values = [np.float64(0.1) / 3.0, 1.0 / 3.0, np.float64(np.inf)]
+    write_csv(tmp_path / "t.csv", ["a", "b", "c"], [values])
+    row = read_csv(tmp_path / "t.csv")[0]
+    assert [float(row[k]) for k in "abc"] == [float(v) for v in values]
+    assert all("np." not in row[k] for k in "abc"), row
