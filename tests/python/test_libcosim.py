@@ -56,7 +56,7 @@ def quiet_libcosim():
     log_output_level(CosimLogLevel.ERROR)
 
 
-def run_libcosim(fmu_path, model, params, U):
+def run_libcosim(fmu_path, model, params, U, friction=None):
     ex = CosimExecution.from_step_size(H_NS)
     slave = CosimLocalSlave(fmu_path=str(fmu_path), instance_name="tire")
     idx = ex.add_local_slave(slave)
@@ -64,14 +64,17 @@ def run_libcosim(fmu_path, model, params, U):
     variables = {v.name.decode(): (v.reference, v.type) for v in ex.slave_variables(idx)}
     assert {n for n in fc.INPUTS + fc.OUTPUTS} <= set(variables)
     assert variables["tireModel"][0] == fc.MODEL_VR, "libcosim must see the tireModel selector"
+    assert variables["friction"][0] == fc.FRICTION_VR, "libcosim must see the friction selector"
     manipulator = CosimManipulator.create_override()
     observer = CosimObserver.create_last_value()
     assert ex.add_manipulator(manipulator), get_last_error_message()
     assert ex.add_observer(observer), get_last_error_message()
     if model is not None:
         assert ex.integer_initial_value(idx, fc.MODEL_VR, fc.MODELS[model]), get_last_error_message()
+    if friction is not None:
+        assert ex.integer_initial_value(idx, fc.FRICTION_VR, fc.FRICTIONS[friction]), get_last_error_message()
     for name, value in params.items():
-        assert ex.real_initial_value(idx, fc.PARAMETER_VR[name], value), get_last_error_message()
+        assert ex.real_initial_value(idx, fc.ALL_PARAMETER_VR[name], value), get_last_error_message()
     for name, value in zip(fc.INPUTS, U[0]):
         assert ex.real_initial_value(idx, fc.INPUT_VR[name], float(value)), get_last_error_message()
     Y = np.empty((len(U), 9))
@@ -85,10 +88,10 @@ def run_libcosim(fmu_path, model, params, U):
     return Y
 
 
-def run_fmpy(model, params, U, unzipdir, md):
+def run_fmpy(model, params, U, unzipdir, md, friction=None):
     s = fc.new_slave(md, unzipdir, name="fmpy")
     try:
-        fc.initialise(s, model, params)
+        fc.initialise(s, model, params, friction=friction)
         Y = np.empty((len(U), 9))
         t = 0.0
         for k in range(len(U)):
@@ -136,3 +139,18 @@ def test_libcosim_selects_every_model_on_the_shipped_fmu(fmpy_fmu, model):
     for other in fc.MODELS:
         if other != model:
             assert not np.allclose(Y, run_fmpy(other, PARAMS, U, unzipdir, md)), (model, other)
+
+
+@pytest.mark.parametrize("friction", list(fc.FRICTIONS))
+def test_libcosim_selects_every_friction_law_on_the_shipped_fmu(fmpy_fmu, friction):
+    """libcosim sets the friction selector (an Integer, like tireModel) and the friction
+    coefficients; with mu = 0.1 the laws differ on these inputs, and each matches fmpy."""
+    md, unzipdir = fmpy_fmu
+    U = _sequence(N_STEPS, 11)
+    params = {**PARAMS, "muX": 0.1, "muY": 0.1}
+    Y = run_libcosim(fc.FMU_PATH, "RLT", params, U, friction)
+    Yref = run_fmpy("RLT", params, U, unzipdir, md, friction)
+    assert_same(Y, Yref, friction)
+    for other in fc.FRICTIONS:
+        if other != friction:
+            assert not np.allclose(Y, run_fmpy("RLT", params, U, unzipdir, md, other)), (friction, other)
