@@ -16,7 +16,7 @@ use super::stepper::{AffineSystem, ContactSystem, OperatingPoint};
 pub const LIFT_OFF_RELAXATION_TIME: f64 = 0.01;
 
 /// How the contact patch is held. Each mode is its own linear system; the step picks the
-/// mode from the inputs. (A friction limit adds a sliding mode here.)
+/// mode from the inputs. (Sliding is per element, in [`super::friction`].)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ContactMode {
     /// Normal load > 0: the model's equations.

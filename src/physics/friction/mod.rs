@@ -6,18 +6,20 @@
 //! ([`FrictionLaw`]) splits each element into parallel branches ([`crate::physics::brush`]):
 //! one for `Coulomb`, four for `Brush`. Branch `i` of every element carries the fractions
 //! `w_i` of the stiffness and damping and `phi_i` of the limit, and has its own deflection
-//! `b_i`; the model's state is the stiffness-weighted sum `U = sum w_i b_i`.
+//! `b_i`; the model's state is the stiffness-weighted sum `U = sum w_i b_i`, and the
+//! branches are stored as their offsets `b_i - U` (zero until a branch slides).
 //!
 //! Branch `i` of the longitudinal and lateral elements shares one friction ellipse
 //! (a planar [`group`]); branch `i` of DDT's yaw element has its own limit. A group sticks
 //! (each `b_i` follows the model's equations with `b_i` in place of `U`) or slides (its
-//! force stays on the limit, [`group::evaluate`]).
+//! force stays on the limit, [`group::GroupInput::evaluate`]).
 //!
 //! How a step is computed ([`crate::physics::Tire::step`]):
 //! 1. The limits at the step's load; a spring force outside them is put on them at once.
-//! 2. If every group sticks, the exact linear step of the model (the stepper) moves `U`,
-//!    and `b_i - U` decays with the element's relaxation rate. The step is kept if no
-//!    branch can have reached its limit within it ([`force_bound`]).
+//! 2. If every group sticks and the step is short against the dynamics, the exact linear
+//!    step of the model (the stepper) moves `U`, and `b_i - U` decays with the element's
+//!    relaxation rate ([`Friction::sticking_step`]). The step is kept if no branch can
+//!    have reached its limit within it ([`force_bound`]).
 //! 3. Otherwise [`sliding`] integrates the branches and the model together, piece by
 //!    piece between stick/slide events located in time, to 1e-12.
 
@@ -344,13 +346,14 @@ impl Friction {
         // Row k of A x + B u; states past n are zero.
         let rate = |x: &[f64; MAX_STATES], u: &[f64; 3], k: usize| {
             let mut rate = system.b[(k, 0)] * u[0] + system.b[(k, 1)] * u[1] + system.b[(k, 2)] * u[2];
-            for (j, xj) in x.iter().enumerate() {
+            for (j, xj) in x[..n].iter().enumerate() {
                 rate += system.a[(k, j)] * xj;
             }
             rate
         };
         let (x0, x1): (&[f64; MAX_STATES], &[f64; MAX_STATES]) = (&start.data.0[0], &end.data.0[0]);
         // The damped elements' forces need every state's rate.
+        // A damper's force needs the state rates, and its rate their rates.
         let (mut rates0, mut rates1) = ([0.0; MAX_STATES], [0.0; MAX_STATES]);
         if self.damped {
             for k in 0..n {
