@@ -302,7 +302,7 @@ impl<'a> SlidingStep<'a> {
             if fa.max(fb) > EVENT_TOLERANCE {
                 break;
             }
-            if hi - lo <= 1e-9 * length {
+            if hi - lo <= 1e-6 * length {
                 break;
             }
             if fa > fb {
@@ -449,6 +449,12 @@ impl<'a> SlidingStep<'a> {
                 break;
             };
             let e = self.events(t + tau, &z_tau, modes)[g][i] - level;
+            // Past the crossing by less than the event tolerance itself: as close as
+            // the event is defined.
+            if e > 0.0 && e <= level {
+                hi = tau;
+                break;
+            }
             if e > 0.0 {
                 hi = tau;
                 e_hi = e;
