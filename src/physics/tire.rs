@@ -321,6 +321,7 @@ impl Tire {
             limits,
             inputs: Self::driving_inputs(inputs),
             input_rates: Self::driving_inputs(input_rates),
+            start_scale: self.states.amax(),
         })
     }
 
@@ -562,6 +563,7 @@ impl Tire {
                             limits,
                             inputs: u0,
                             input_rates: du,
+                            start_scale: self.states.amax(),
                         };
                         step.prepare(&mut start, &mut sliders);
                         step.integrate(&mut start, &mut sliders, h)

@@ -11,12 +11,19 @@
 //!
 //! The result is a function of the states, inputs and step size only (nothing is carried
 //! from one step to the next), so a restored FMU state continues bit-identically.
+//!
+//! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep;
+//! [`events`]: where within a substep a group changes mode.
 
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
+mod events;
+mod extrapolation;
+
 use super::group::{GroupInput, GroupOutput};
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
+use events::{EVENT_TOLERANCE, MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 
 /// The model's states, then the branch deflections by direction and branch.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
@@ -26,57 +33,11 @@ fn branch_index(direction: usize, branch: usize) -> usize {
     MAX_STATES + direction * MAX_BRANCHES + branch
 }
 
-/// Midpoint substep counts of the extrapolation rows.
-const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
-/// Relative accuracy of each substep.
-const TOLERANCE: f64 = 1e-12;
-/// An event value above this has crossed; below it, rounding. An event is located where
-/// its value crosses half of this, clear of the rounding noise around zero (a group that
-/// starts on its limit sits at zero).
-const EVENT_TOLERANCE: f64 = 1e-12;
-/// A sampled event value above minus this is close enough to its limit that the limit
-/// may be touched between samples; the accurate solution is then maximised there.
-const NEAR_EVENT: f64 = 1e-3;
-/// How often a group may change mode at one instant before its events wait for time to
-/// move on (a motion exactly along the limit, where rounding decides).
-const MAX_CHANGES_AT_AN_INSTANT: u32 = 3;
 /// At most this many substeps and events per step (a safeguard: a step takes a handful).
 const MAX_SUBSTEPS: usize = 200_000;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
-/// A point inside a substep (time from its start) where group `g`, branch `i` is past
-/// its event tolerance.
-type Interior = (f64, usize, usize);
-
-/// A peak past the tolerance of the parabola through event values at three equally
-/// spaced samples `s = -1, 0, 1`: its position `s` and the group and branch.
-fn peak_between(first: &Events, middle: &Events, last: &Events) -> Option<(f64, usize, usize)> {
-    for g in 0..Group::COUNT {
-        for i in 0..MAX_BRANCHES {
-            let (e0, e1, e2) = (first[g][i], middle[g][i], last[g][i]);
-            if !(e0.is_finite() && e1.is_finite() && e2.is_finite()) {
-                continue;
-            }
-            let curvature = 0.5 * (e0 - 2.0 * e1 + e2);
-            let slope = 0.5 * (e2 - e0);
-            if curvature < 0.0 {
-                let s = -slope / (2.0 * curvature);
-                if s.abs() <= 1.0 && e1 - slope * slope / (4.0 * curvature) > EVENT_TOLERANCE {
-                    return Some((s, g, i));
-                }
-            }
-        }
-    }
-    None
-}
-
-/// The first group and branch whose event value is past the tolerance.
-fn first_past_tolerance(events: &Events) -> Option<(usize, usize)> {
-    (0..Group::COUNT)
-        .flat_map(|g| (0..MAX_BRANCHES).map(move |i| (g, i)))
-        .find(|&(g, i)| events[g][i] > EVENT_TOLERANCE)
-}
 
 /// The coupled system of one step: the model at its operating point with held or ramped
 /// driving inputs, and its branches at the step's limits.
@@ -86,6 +47,9 @@ pub struct SlidingStep<'a> {
     pub limits: Limits,
     pub inputs: DrivingVector,
     pub input_rates: DrivingVector,
+    /// The largest state at the start of the step (for tolerances where no limit gives
+    /// a scale).
+    pub start_scale: f64,
 }
 
 /// Why the integration gave up (the tire is left unchanged).
@@ -213,186 +177,6 @@ impl<'a> SlidingStep<'a> {
         self.rates(t, z, modes).1
     }
 
-    /// The modified midpoint rule with `n` substeps over `[t, t + length]`. Also gives the
-    /// first interior point (time from `t`, group, branch) where an event value is, or
-    /// may be between samples, past the tolerance: a limit touched and left again within
-    /// the substep shows there. Between samples, a parabola through three consecutive
-    /// event values finds a peak the samples straddle. Also gives the sample closest to
-    /// its limit (within [`NEAR_EVENT`]) and the sample spacing.
-    #[allow(clippy::too_many_arguments)]
-    fn midpoint(
-        &self,
-        t: f64,
-        z: &Vector,
-        (start_rates, start_events): (&Vector, &Events),
-        length: f64,
-        n: usize,
-        modes: &Modes,
-    ) -> (Vector, Option<Interior>, Option<Interior>, f64) {
-        let h = length / n as f64;
-        let mut previous = *z;
-        let mut current = *z;
-        let mut interior = None;
-        let mut closest: Option<(f64, usize, usize, f64)> = None;
-        let mut recent = [*start_events, *start_events];
-        for (c, r) in current.iter_mut().zip(start_rates) {
-            *c += h * r;
-        }
-        for m in 1..n {
-            let (rates, events) = self.rates(t + m as f64 * h, &current, modes);
-            if interior.is_none() {
-                interior = first_past_tolerance(&events).map(|(g, i)| (m as f64 * h, g, i));
-            }
-            if interior.is_none() && m >= 2 {
-                interior = peak_between(&recent[0], &recent[1], &events)
-                    .map(|(s, g, i)| ((m as f64 - 1.0 + s) * h, g, i));
-            }
-            for g in 0..Group::COUNT {
-                for i in 0..MAX_BRANCHES {
-                    let e = events[g][i];
-                    if e > -NEAR_EVENT && closest.is_none_or(|(_, _, _, best)| e > best) {
-                        closest = Some((m as f64 * h, g, i, e));
-                    }
-                }
-            }
-            recent = [recent[1], events];
-            let mut next = previous;
-            for ((nx, r), _) in next.iter_mut().zip(&rates).zip(0..) {
-                *nx += 2.0 * h * r;
-            }
-            previous = current;
-            current = next;
-        }
-        let (rates, _) = self.rates(t + length, &current, modes);
-        let mut out = [0.0; SIZE];
-        for k in 0..SIZE {
-            out[k] = 0.5 * (current[k] + previous[k] + h * rates[k]);
-        }
-        (out, interior, closest.map(|(at, g, i, _)| (at, g, i)), h)
-    }
-
-    /// The time in `window` (clipped to the substep) at which group `g`, branch `i` has
-    /// its largest event value, if that is past the tolerance: a golden-section search on
-    /// the accurate solution.
-    fn touches_near(
-        &self,
-        t: f64,
-        z: &Vector,
-        modes: &Modes,
-        length: f64,
-        window: (f64, f64),
-        (g, i): (usize, usize),
-    ) -> Option<f64> {
-        let scale = self.deflection_scale();
-        let value = |tau: f64| {
-            if tau <= 0.0 {
-                return self.events(t, z, modes)[g][i];
-            }
-            self.substep_plain(t, z, tau, modes, scale)
-                .map_or(f64::NEG_INFINITY, |z_tau| {
-                    self.events(t + tau, &z_tau, modes)[g][i]
-                })
-        };
-        const GOLDEN: f64 = 0.618_033_988_749_894_9;
-        let (mut lo, mut hi) = (window.0.max(0.0), window.1.min(length));
-        let mut a = hi - GOLDEN * (hi - lo);
-        let mut b = lo + GOLDEN * (hi - lo);
-        let (mut fa, mut fb) = (value(a), value(b));
-        for _ in 0..40 {
-            if fa.max(fb) > EVENT_TOLERANCE {
-                break;
-            }
-            if hi - lo <= 1e-6 * length {
-                break;
-            }
-            if fa > fb {
-                hi = b;
-                b = a;
-                fb = fa;
-                a = hi - GOLDEN * (hi - lo);
-                fa = value(a);
-            } else {
-                lo = a;
-                a = b;
-                fa = fb;
-                b = lo + GOLDEN * (hi - lo);
-                fb = value(b);
-            }
-        }
-        if fa > EVENT_TOLERANCE {
-            Some(a)
-        } else if fb > EVENT_TOLERANCE {
-            Some(b)
-        } else {
-            None
-        }
-    }
-
-    /// The end of an extrapolated substep, without looking inside it for events.
-    fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes, scale: f64) -> Option<Vector> {
-        self.extrapolate(t, z, length, modes, scale, false)
-            .map(|(z, _, _, _)| z)
-    }
-
-    /// An extrapolated substep, with where a limit may have been touched inside it and
-    /// the spacing of the samples that found it.
-    fn substep(
-        &self,
-        t: f64,
-        z: &Vector,
-        length: f64,
-        modes: &Modes,
-        scale: f64,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        self.extrapolate(t, z, length, modes, scale, true)
-    }
-
-    /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
-    /// the factor by which the next substep may grow, and the first interior point where
-    /// an event value was past the tolerance (from the finest midpoint sequence).
-    fn extrapolate(
-        &self,
-        t: f64,
-        z: &Vector,
-        length: f64,
-        modes: &Modes,
-        scale: f64,
-        look_inside: bool,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        let (start_rates, start_events) = self.rates(t, z, modes);
-        let mut table = [[0.0; SIZE]; SEQUENCE.len()];
-        for j in 0..SEQUENCE.len() {
-            let mut row = [[0.0; SIZE]; SEQUENCE.len()];
-            let (interior, closest, spacing);
-            (row[0], interior, closest, spacing) =
-                self.midpoint(t, z, (&start_rates, &start_events), length, SEQUENCE[j], modes);
-            for k in 1..=j {
-                let ratio = (SEQUENCE[j] as f64 / SEQUENCE[j - k] as f64).powi(2) - 1.0;
-                for c in 0..SIZE {
-                    row[k][c] = row[k - 1][c] + (row[k - 1][c] - table[k - 1][c]) / ratio;
-                }
-            }
-            if j >= 2 {
-                let error = (0..SIZE)
-                    .map(|c| {
-                        (row[j][c] - row[j - 1][c]).abs()
-                            / (TOLERANCE * (scale + z[c].abs().max(row[j][c].abs())))
-                    })
-                    .fold(0.0, f64::max);
-                if error <= 1.0 {
-                    // Error ~ length^(2j + 1): aim at a third of the tolerance next time.
-                    let growth = 0.9 * (3.0 * error).max(1e-10).powf(-1.0 / (2 * j + 1) as f64);
-                    // A sample past or close to its limit: the caller maximises the
-                    // accurate event value around it.
-                    let interior = if look_inside { interior.or(closest) } else { None };
-                    return Some((row[j], growth.clamp(0.2, 4.0), interior, spacing));
-                }
-            }
-            table = row;
-        }
-        None
-    }
-
     /// Puts each sliding spring group back on its ellipse (it drifts by rounding).
     fn hold_on_limits(&self, z: &mut Vector, modes: &Modes) {
         let x = self.model_states(z);
@@ -417,61 +201,6 @@ impl<'a> SlidingStep<'a> {
                 }
             }
         }
-    }
-
-    /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
-    /// event tolerance.
-    #[allow(clippy::too_many_arguments)]
-    fn crossing(
-        &self,
-        t: f64,
-        z: &Vector,
-        length: f64,
-        modes: &Modes,
-        scale: f64,
-        (g, i): (usize, usize),
-        start: f64,
-        end: f64,
-    ) -> f64 {
-        let level = 0.5 * EVENT_TOLERANCE;
-        let (mut lo, mut hi) = (0.0, length);
-        let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
-        let mut side = 0;
-        for _ in 0..80 {
-            if hi - lo <= 1e-14 * length.max(f64::MIN_POSITIVE) {
-                break;
-            }
-            let mut tau = (lo * e_hi - hi * e_lo) / (e_hi - e_lo);
-            if !(tau > lo && tau < hi) {
-                tau = 0.5 * (lo + hi);
-            }
-            let Some(z_tau) = self.substep_plain(t, z, tau, modes, scale) else {
-                break;
-            };
-            let e = self.events(t + tau, &z_tau, modes)[g][i] - level;
-            // Past the crossing by less than the event tolerance itself: as close as
-            // the event is defined.
-            if e > 0.0 && e <= level {
-                hi = tau;
-                break;
-            }
-            if e > 0.0 {
-                hi = tau;
-                e_hi = e;
-                if side == 1 {
-                    e_lo *= 0.5;
-                }
-                side = 1;
-            } else {
-                lo = tau;
-                e_lo = e;
-                if side == -1 {
-                    e_hi *= 0.5;
-                }
-                side = -1;
-            }
-        }
-        hi
     }
 
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
@@ -587,14 +316,21 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// A deflection typical of the elements: the largest elastic travel to a limit.
+    /// Without friction (zero limits) the states' own size at the start of the step
+    /// takes its place, so that the tolerance is never far below rounding.
     fn deflection_scale(&self) -> f64 {
-        self.friction
+        let elastic = self
+            .friction
             .elements
             .iter()
             .enumerate()
             .filter_map(|(d, e)| e.map(|e| self.limits.0[d] / e.stiffness.max(f64::MIN_POSITIVE)))
-            .fold(0.0, f64::max)
-            .max(1e-9)
+            .fold(0.0, f64::max);
+        if elastic > 0.0 {
+            elastic
+        } else {
+            self.start_scale.max(1e-9)
+        }
     }
 
     /// The longest substep: four of the fastest time constants (a quarter of one per

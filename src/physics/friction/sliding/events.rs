@@ -1,0 +1,164 @@
+//! Stick/slide events inside a piece: where a group's event value crosses zero (regula
+//! falsi, Illinois), and whether a limit is touched and left again between samples (a
+//! parabola through three samples, then a golden-section search on the accurate solution).
+
+use super::{Events, Modes, SlidingStep, Vector};
+use crate::physics::friction::{Group, MAX_BRANCHES};
+
+/// An event value above this has crossed; below it, rounding. An event is located where
+/// its value crosses half of this, clear of the rounding noise around zero (a group that
+/// starts on its limit sits at zero).
+pub(super) const EVENT_TOLERANCE: f64 = 1e-12;
+/// A sampled event value above minus this is close enough to its limit that the limit
+/// may be touched between samples; the accurate solution is then maximised there.
+pub(super) const NEAR_EVENT: f64 = 1e-3;
+/// How often a group may change mode at one instant before its events wait for time to
+/// move on (a motion exactly along the limit, where rounding decides).
+pub(super) const MAX_CHANGES_AT_AN_INSTANT: u32 = 3;
+
+/// A point inside a substep (time from its start) where group `g`, branch `i` is past
+/// its event tolerance.
+pub(super) type Interior = (f64, usize, usize);
+
+/// A peak past the tolerance of the parabola through event values at three equally
+/// spaced samples `s = -1, 0, 1`: its position `s` and the group and branch.
+pub(super) fn peak_between(first: &Events, middle: &Events, last: &Events) -> Option<(f64, usize, usize)> {
+    for g in 0..Group::COUNT {
+        for i in 0..MAX_BRANCHES {
+            let (e0, e1, e2) = (first[g][i], middle[g][i], last[g][i]);
+            if !(e0.is_finite() && e1.is_finite() && e2.is_finite()) {
+                continue;
+            }
+            let curvature = 0.5 * (e0 - 2.0 * e1 + e2);
+            let slope = 0.5 * (e2 - e0);
+            if curvature < 0.0 {
+                let s = -slope / (2.0 * curvature);
+                if s.abs() <= 1.0 && e1 - slope * slope / (4.0 * curvature) > EVENT_TOLERANCE {
+                    return Some((s, g, i));
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The first group and branch whose event value is past the tolerance.
+pub(super) fn first_past_tolerance(events: &Events) -> Option<(usize, usize)> {
+    (0..Group::COUNT)
+        .flat_map(|g| (0..MAX_BRANCHES).map(move |i| (g, i)))
+        .find(|&(g, i)| events[g][i] > EVENT_TOLERANCE)
+}
+
+impl SlidingStep<'_> {
+    /// The time in `window` (clipped to the substep) at which group `g`, branch `i` has
+    /// its largest event value, if that is past the tolerance: a golden-section search on
+    /// the accurate solution.
+    pub(super) fn touches_near(
+        &self,
+        t: f64,
+        z: &Vector,
+        modes: &Modes,
+        length: f64,
+        window: (f64, f64),
+        (g, i): (usize, usize),
+    ) -> Option<f64> {
+        let scale = self.deflection_scale();
+        let value = |tau: f64| {
+            if tau <= 0.0 {
+                return self.events(t, z, modes)[g][i];
+            }
+            self.substep_plain(t, z, tau, modes, scale)
+                .map_or(f64::NEG_INFINITY, |z_tau| {
+                    self.events(t + tau, &z_tau, modes)[g][i]
+                })
+        };
+        const GOLDEN: f64 = 0.618_033_988_749_894_9;
+        let (mut lo, mut hi) = (window.0.max(0.0), window.1.min(length));
+        let mut a = hi - GOLDEN * (hi - lo);
+        let mut b = lo + GOLDEN * (hi - lo);
+        let (mut fa, mut fb) = (value(a), value(b));
+        for _ in 0..40 {
+            if fa.max(fb) > EVENT_TOLERANCE {
+                break;
+            }
+            if hi - lo <= 1e-6 * length {
+                break;
+            }
+            if fa > fb {
+                hi = b;
+                b = a;
+                fb = fa;
+                a = hi - GOLDEN * (hi - lo);
+                fa = value(a);
+            } else {
+                lo = a;
+                a = b;
+                fa = fb;
+                b = lo + GOLDEN * (hi - lo);
+                fb = value(b);
+            }
+        }
+        if fa > EVENT_TOLERANCE {
+            Some(a)
+        } else if fb > EVENT_TOLERANCE {
+            Some(b)
+        } else {
+            None
+        }
+    }
+
+    /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
+    /// event tolerance.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn crossing(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+        (g, i): (usize, usize),
+        start: f64,
+        end: f64,
+    ) -> f64 {
+        let level = 0.5 * EVENT_TOLERANCE;
+        let (mut lo, mut hi) = (0.0, length);
+        let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
+        let mut side = 0;
+        for _ in 0..80 {
+            if hi - lo <= 1e-14 * length.max(f64::MIN_POSITIVE) {
+                break;
+            }
+            let mut tau = (lo * e_hi - hi * e_lo) / (e_hi - e_lo);
+            if !(tau > lo && tau < hi) {
+                tau = 0.5 * (lo + hi);
+            }
+            let Some(z_tau) = self.substep_plain(t, z, tau, modes, scale) else {
+                break;
+            };
+            let e = self.events(t + tau, &z_tau, modes)[g][i] - level;
+            // Past the crossing by less than the event tolerance itself: as close as
+            // the event is defined.
+            if e > 0.0 && e <= level {
+                hi = tau;
+                break;
+            }
+            if e > 0.0 {
+                hi = tau;
+                e_hi = e;
+                if side == 1 {
+                    e_lo *= 0.5;
+                }
+                side = 1;
+            } else {
+                lo = tau;
+                e_lo = e;
+                if side == -1 {
+                    e_hi *= 0.5;
+                }
+                side = -1;
+            }
+        }
+        hi
+    }
+}

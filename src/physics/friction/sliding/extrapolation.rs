@@ -1,0 +1,151 @@
+//! Gragg-Bulirsch-Stoer extrapolation of one substep within a piece: the modified
+//! midpoint rule with 2, 4, ..., 16 steps and polynomial extrapolation in h^2, to a
+//! relative 1e-12. The midpoint samples also show where a limit may be touched inside the
+//! substep ([`super::events`]).
+
+use super::events::{Interior, NEAR_EVENT, first_past_tolerance, peak_between};
+use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use crate::physics::friction::{Group, MAX_BRANCHES};
+
+/// Midpoint substep counts of the extrapolation rows.
+const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
+/// Relative accuracy of each substep.
+const TOLERANCE: f64 = 1e-12;
+/// A few rounding units: the error floor relative to the largest entry.
+const ROUNDING: f64 = 16.0 * f64::EPSILON;
+
+impl SlidingStep<'_> {
+    /// The modified midpoint rule with `n` substeps over `[t, t + length]`. Also gives the
+    /// first interior point (time from `t`, group, branch) where an event value is, or
+    /// may be between samples, past the tolerance: a limit touched and left again within
+    /// the substep shows there. Between samples, a parabola through three consecutive
+    /// event values finds a peak the samples straddle. Also gives the sample closest to
+    /// its limit (within [`NEAR_EVENT`]) and the sample spacing.
+    #[allow(clippy::too_many_arguments)]
+    fn midpoint(
+        &self,
+        t: f64,
+        z: &Vector,
+        (start_rates, start_events): (&Vector, &Events),
+        length: f64,
+        n: usize,
+        modes: &Modes,
+    ) -> (Vector, Option<Interior>, Option<Interior>, f64) {
+        let h = length / n as f64;
+        let mut previous = *z;
+        let mut current = *z;
+        let mut interior = None;
+        let mut closest: Option<(f64, usize, usize, f64)> = None;
+        let mut recent = [*start_events, *start_events];
+        for (c, r) in current.iter_mut().zip(start_rates) {
+            *c += h * r;
+        }
+        for m in 1..n {
+            let (rates, events) = self.rates(t + m as f64 * h, &current, modes);
+            if interior.is_none() {
+                interior = first_past_tolerance(&events).map(|(g, i)| (m as f64 * h, g, i));
+            }
+            if interior.is_none() && m >= 2 {
+                interior = peak_between(&recent[0], &recent[1], &events)
+                    .map(|(s, g, i)| ((m as f64 - 1.0 + s) * h, g, i));
+            }
+            for g in 0..Group::COUNT {
+                for i in 0..MAX_BRANCHES {
+                    let e = events[g][i];
+                    if e > -NEAR_EVENT && closest.is_none_or(|(_, _, _, best)| e > best) {
+                        closest = Some((m as f64 * h, g, i, e));
+                    }
+                }
+            }
+            recent = [recent[1], events];
+            let mut next = previous;
+            for ((nx, r), _) in next.iter_mut().zip(&rates).zip(0..) {
+                *nx += 2.0 * h * r;
+            }
+            previous = current;
+            current = next;
+        }
+        let (rates, _) = self.rates(t + length, &current, modes);
+        let mut out = [0.0; SIZE];
+        for k in 0..SIZE {
+            out[k] = 0.5 * (current[k] + previous[k] + h * rates[k]);
+        }
+        (out, interior, closest.map(|(at, g, i, _)| (at, g, i)), h)
+    }
+
+    /// The end of an extrapolated substep, without looking inside it for events.
+    pub(super) fn substep_plain(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+    ) -> Option<Vector> {
+        self.extrapolate(t, z, length, modes, scale, false)
+            .map(|(z, _, _, _)| z)
+    }
+
+    /// An extrapolated substep, with where a limit may have been touched inside it and
+    /// the spacing of the samples that found it.
+    pub(super) fn substep(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        self.extrapolate(t, z, length, modes, scale, true)
+    }
+
+    /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
+    /// the factor by which the next substep may grow, and the first interior point where
+    /// an event value was past the tolerance (from the finest midpoint sequence).
+    fn extrapolate(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        scale: f64,
+        look_inside: bool,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        let (start_rates, start_events) = self.rates(t, z, modes);
+        let mut table = [[0.0; SIZE]; SEQUENCE.len()];
+        for j in 0..SEQUENCE.len() {
+            let mut row = [[0.0; SIZE]; SEQUENCE.len()];
+            let (interior, closest, spacing);
+            (row[0], interior, closest, spacing) =
+                self.midpoint(t, z, (&start_rates, &start_events), length, SEQUENCE[j], modes);
+            for k in 1..=j {
+                let ratio = (SEQUENCE[j] as f64 / SEQUENCE[j - k] as f64).powi(2) - 1.0;
+                for c in 0..SIZE {
+                    row[k][c] = row[k - 1][c] + (row[k - 1][c] - table[k - 1][c]) / ratio;
+                }
+            }
+            if j >= 2 {
+                // Relative to each entry and the deflection scale, and never below the
+                // rounding of the largest entry (an entry decaying to zero next to a
+                // velocity of metres per second cannot be resolved further).
+                let floor = ROUNDING * z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                let error = (0..SIZE)
+                    .map(|c| {
+                        (row[j][c] - row[j - 1][c]).abs()
+                            / (TOLERANCE * (scale + z[c].abs().max(row[j][c].abs())) + floor)
+                    })
+                    .fold(0.0, f64::max);
+                if error <= 1.0 {
+                    // Error ~ length^(2j + 1): aim at a third of the tolerance next time.
+                    let growth = 0.9 * (3.0 * error).max(1e-10).powf(-1.0 / (2 * j + 1) as f64);
+                    // A sample past or close to its limit: the caller maximises the
+                    // accurate event value around it.
+                    let interior = if look_inside { interior.or(closest) } else { None };
+                    return Some((row[j], growth.clamp(0.2, 4.0), interior, spacing));
+                }
+            }
+            table = row;
+        }
+        None
+    }
+}
