@@ -315,14 +315,13 @@ impl Tire {
         }
         let point = self.operating_point(vx, load);
         let limits = Limits::at(&self.parameters, load);
-        Some(SlidingStep {
-            system: self.rolling.at(point),
-            friction: self.friction.as_ref().expect("checked above"),
+        Some(SlidingStep::new(
+            self.rolling.at(point),
+            self.friction.as_ref().expect("checked above"),
             limits,
-            inputs: Self::driving_inputs(inputs),
-            input_rates: Self::driving_inputs(input_rates),
-            start_scale: self.states.amax(),
-        })
+            (Self::driving_inputs(inputs), Self::driving_inputs(input_rates)),
+            self.states.amax(),
+        ))
     }
 
     /// Outputs at given states, branches and inputs, with the friction limits at the
@@ -557,14 +556,8 @@ impl Tire {
                     if !friction.sticking_step(state_space, &map.transition, &limits, ends, (&u0, &du), h) {
                         let mut sliders = friction.state;
                         let mut start = self.states;
-                        let step = SlidingStep {
-                            system: state_space,
-                            friction,
-                            limits,
-                            inputs: u0,
-                            input_rates: du,
-                            start_scale: self.states.amax(),
-                        };
+                        let step =
+                            SlidingStep::new(state_space, friction, limits, (u0, du), self.states.amax());
                         step.prepare(&mut start, &mut sliders);
                         step.integrate(&mut start, &mut sliders, h)
                             .map_err(|_| StepError::NotConverged)?;

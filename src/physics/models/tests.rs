@@ -349,16 +349,21 @@ proptest! {
         }
     }
 
-    /// Plausible tires (every parameter within a factor 3 of its default) never need to
-    /// refuse a step with sliding, whatever the inputs and step size.
+    /// Plausible tires (every parameter within a factor 3 of its default) at plausible
+    /// loads (from a quarter to three times Fz0, or lifted off) never need to refuse a
+    /// step with sliding, whatever the inputs and step size. (At a few percent of Fz0 the
+    /// elastic travel to the limit shrinks to micrometres, and combined sliding aligns its
+    /// force within microseconds: long steps there may be refused, see the README.)
     #[test]
     fn steps_with_sliding_converge_for_plausible_tires(
         p in scaled_parameters(0.33..3.0),
         steps in prop::collection::vec(
-            (-40.0f64..40.0, -5.0f64..5.0, -2.0f64..2.0, -5.0f64..5.0, -1e4f64..1.5e5, 1e-4f64..2.0), 1..12),
+            (-40.0f64..40.0, -5.0f64..5.0, -2.0f64..2.0, -5.0f64..5.0, -0.2f64..3.0, 1e-4f64..2.0), 1..12),
     ) {
+        let nominal = p.get(Parameter::NominalLoad);
         let mut t = Tire::new(p).unwrap();
-        for (vx, vy, r, vsx, fz, h) in steps {
+        for (vx, vy, r, vsx, load_ratio, h) in steps {
+            let fz = if load_ratio <= 0.0 { load_ratio * nominal } else { load_ratio.max(0.25) * nominal };
             for (input, value) in [(Input::Vx, vx), (Input::Vy, vy), (Input::SteerRate, r), (Input::Vsx, vsx), (Input::Fz, fz)] {
                 t.set_input(input, value);
             }

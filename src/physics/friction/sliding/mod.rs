@@ -34,7 +34,7 @@ fn branch_index(direction: usize, branch: usize) -> usize {
 }
 
 /// At most this many substeps and events per step (a safeguard: a step takes a handful).
-const MAX_SUBSTEPS: usize = 200_000;
+const MAX_SUBSTEPS: usize = 50_000;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
@@ -50,6 +50,9 @@ pub struct SlidingStep<'a> {
     /// The largest state at the start of the step (for tolerances where no limit gives
     /// a scale).
     pub start_scale: f64,
+    /// Each group and branch with its constants filled in (present directions, branch
+    /// stiffness, damping and limit): what stays fixed over the step.
+    templates: [[GroupInput; MAX_BRANCHES]; Group::COUNT],
 }
 
 /// Why the integration gave up (the tire is left unchanged).
@@ -57,6 +60,42 @@ pub struct SlidingStep<'a> {
 pub struct NotConverged;
 
 impl<'a> SlidingStep<'a> {
+    pub fn new(
+        system: &'a StateSpace,
+        friction: &'a Friction,
+        limits: Limits,
+        (inputs, input_rates): (DrivingVector, DrivingVector),
+        start_scale: f64,
+    ) -> Self {
+        let mut templates = [[GroupInput::default(); MAX_BRANCHES]; Group::COUNT];
+        for group in Group::ALL {
+            for (i, branch) in friction.branches.iter().enumerate() {
+                let input = &mut templates[group as usize][i];
+                for &direction in group.directions() {
+                    let d = direction as usize;
+                    // A direction with a zero limit is left out: its branch deflection
+                    // stays at zero ([`SlidingStep::prepare`] puts it there).
+                    let Some(element) = friction.elements[d].filter(|_| limits.0[d] > 0.0) else {
+                        continue;
+                    };
+                    input.present[d] = true;
+                    input.stiffness[d] = branch.stiffness_fraction * element.stiffness;
+                    input.damping[d] = branch.stiffness_fraction * element.damping;
+                    input.limit[d] = branch.limit_fraction * limits.0[d];
+                }
+            }
+        }
+        Self {
+            system,
+            friction,
+            limits,
+            inputs,
+            input_rates,
+            start_scale,
+            templates,
+        }
+    }
+
     fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
         let mut z = [0.0; SIZE];
         z[..MAX_STATES].copy_from_slice(x.as_slice());
@@ -115,26 +154,17 @@ impl<'a> SlidingStep<'a> {
         x_rates: &StateVector,
         z: &Vector,
     ) -> GroupInput {
-        let branch = self.friction.branches[i];
-        let mut input = GroupInput::default();
+        let mut input = self.templates[group as usize][i];
         for &direction in group.directions() {
             let d = direction as usize;
-            let Some(element) = self.friction.elements[d] else {
-                continue;
-            };
-            if self.limits.0[d] <= 0.0 {
+            if !input.present[d] {
                 continue;
             }
-            let k = element.state;
-            let relaxation = self.system.a[(k, k)];
+            let k = self.friction.elements[d].as_ref().expect("present").state;
             let b = z[branch_index(d, i)];
-            input.present[d] = true;
             input.deflection[d] = b;
             // The model's rate of U with b in its own relaxation term.
-            input.sticking_rate[d] = x_rates[k] + relaxation * (b - x[k]);
-            input.stiffness[d] = branch.stiffness_fraction * element.stiffness;
-            input.damping[d] = branch.stiffness_fraction * element.damping;
-            input.limit[d] = branch.limit_fraction * self.limits.0[d];
+            input.sticking_rate[d] = x_rates[k] + self.system.a[(k, k)] * (b - x[k]);
         }
         input
     }
