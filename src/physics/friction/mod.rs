@@ -339,30 +339,66 @@ impl Friction {
         if self.state.any_sliding() || !self.short_against_dynamics(system, h) {
             return false;
         }
-        let n = system.states;
+        let offsets = match system.states {
+            2 => {
+                self.sticking_bounds::<2>(system, transition, limits, (start, end), (inputs, input_rates), h)
+            }
+            3 => {
+                self.sticking_bounds::<3>(system, transition, limits, (start, end), (inputs, input_rates), h)
+            }
+            4 => {
+                self.sticking_bounds::<4>(system, transition, limits, (start, end), (inputs, input_rates), h)
+            }
+            _ => self.sticking_bounds::<MAX_STATES>(
+                system,
+                transition,
+                limits,
+                (start, end),
+                (inputs, input_rates),
+                h,
+            ),
+        };
+        match offsets {
+            Some(offsets) => {
+                self.state.offsets = offsets;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The body of [`Friction::sticking_step`] for a model of `N` states (sized loops):
+    /// the branch offsets at the end of the step, or `None` if a limit may be reached.
+    fn sticking_bounds<const N: usize>(
+        &self,
+        system: &StateSpace,
+        transition: &StateMatrix,
+        limits: &Limits,
+        (start, end): (&StateVector, &StateVector),
+        (inputs, input_rates): (&DrivingVector, &DrivingVector),
+        h: f64,
+    ) -> Option<[[f64; MAX_BRANCHES]; Direction::COUNT]> {
         let u0 = [inputs[0], inputs[1], inputs[2]];
         let du = [input_rates[0], input_rates[1], input_rates[2]];
         let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
-        // Row k of A x + B u; states past n are zero.
+        // Row k of A x + B u over the N states.
         let rate = |x: &[f64; MAX_STATES], u: &[f64; 3], k: usize| {
             let mut rate = system.b[(k, 0)] * u[0] + system.b[(k, 1)] * u[1] + system.b[(k, 2)] * u[2];
-            for (j, xj) in x[..n].iter().enumerate() {
+            for (j, xj) in x.iter().enumerate().take(N) {
                 rate += system.a[(k, j)] * xj;
             }
             rate
         };
         let (x0, x1): (&[f64; MAX_STATES], &[f64; MAX_STATES]) = (&start.data.0[0], &end.data.0[0]);
-        // The damped elements' forces need every state's rate.
         // A damper's force needs the state rates, and its rate their rates.
         let (mut rates0, mut rates1) = ([0.0; MAX_STATES], [0.0; MAX_STATES]);
         if self.damped {
-            for k in 0..n {
+            for k in 0..N {
                 rates0[k] = rate(x0, &u0, k);
                 rates1[k] = rate(x1, &u1, k);
             }
         }
         let mut offsets = self.state.offsets;
-        let mut offsets_moved = false;
         // Per direction: a bound on max_i |F_i| / phi_i over the step, F_i the force of
         // branch i. Branch i holds if sum_d (F_i,d / (phi_i L_d))^2 < 1.
         let mut scaled_bound = [0.0; Direction::COUNT];
@@ -393,7 +429,6 @@ impl Friction {
                 continue;
             }
             // Branches differ by offsets that relax at the element's rate.
-            offsets_moved = true;
             let relaxation = system.a[(k, k)];
             let decay = if decoupled(system, k) {
                 transition[(k, k)]
@@ -429,13 +464,10 @@ impl Friction {
             }
             // Also refused for NaN (a zero limit).
             if utilisation.partial_cmp(&1.0) != Some(std::cmp::Ordering::Less) {
-                return false;
+                return None;
             }
         }
-        if offsets_moved {
-            self.state.offsets = offsets;
-        }
-        true
+        Some(offsets)
     }
 }
 
