@@ -330,7 +330,15 @@ proptest! {
         t.set_input(Input::Vy, pushes.0);
         t.set_input(Input::SteerRate, pushes.1);
         t.set_input(Input::Vsx, pushes.2);
-        t.step(0.2).unwrap();
+        match t.step(0.2) {
+            Ok(()) => {}
+            // An extreme random tire may refuse a long sliding step (see
+            // outputs_stay_finite_for_random_parameters_and_inputs): nothing to test then.
+            Err(StepError::NotConverged) if t.parameters().friction != FrictionLaw::Unlimited => {
+                return Ok(());
+            }
+            Err(e) => prop_assert!(false, "{e}"),
+        }
         for input in [Input::Vx, Input::Vy, Input::SteerRate, Input::Vsx] {
             t.set_input(input, 0.0);
         }
