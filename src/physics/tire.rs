@@ -3,7 +3,7 @@
 use std::fmt;
 
 use super::friction::sliding::SlidingStep;
-use super::friction::{Friction, Limits, SliderState};
+use super::friction::{Friction, Limits, LinearStep, SliderState};
 use super::load::LoadLaw;
 use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
@@ -552,14 +552,24 @@ impl Tire {
                     let limits = Limits::at(&self.parameters, load);
                     system.at(point);
                     let (state_space, map) = system.current_and_step_map();
-                    let ends = (&self.states, &next_states);
-                    if !friction.sticking_step(state_space, &map.transition, &limits, ends, (&u0, &du), h) {
+                    let linear = LinearStep {
+                        system: state_space,
+                        transition: &map.transition,
+                        limits: &limits,
+                        start: &self.states,
+                        end: &next_states,
+                        inputs: &u0,
+                        input_rates: &du,
+                        h,
+                    };
+                    if !friction.sticking_step(&linear) {
                         let mut sliders = friction.state;
                         let mut start = self.states;
-                        let step =
+                        let sliding_step =
                             SlidingStep::new(state_space, friction, limits, (u0, du), self.states.amax());
-                        step.prepare(&mut start, &mut sliders);
-                        step.integrate(&mut start, &mut sliders, h)
+                        sliding_step.prepare(&mut start, &mut sliders);
+                        sliding_step
+                            .integrate(&mut start, &mut sliders, h)
                             .map_err(|_| StepError::NotConverged)?;
                         if !finite(start.as_slice()) {
                             return Err(StepError::NotFinite);

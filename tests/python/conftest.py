@@ -8,6 +8,7 @@ the small ``Tire`` helper below and frees them at the end of each test.
 from __future__ import annotations
 
 import ctypes
+import os
 import sys
 from pathlib import Path
 
@@ -178,6 +179,15 @@ def fmu_path():
     if not FMU_PATH.is_file():
         pytest.fail(f"FMU not found: {FMU_PATH} (build it with ./scripts/build-fmu)")
     return str(FMU_PATH)
+
+
+@pytest.fixture(scope="session")
+def example_fmu(request):
+    """The FMU the examples run: $TIRELAG_FMU if set, else the built one."""
+    env = os.environ.get("TIRELAG_FMU")
+    if env:
+        return str(Path(env).resolve())
+    return request.getfixturevalue("fmu_path")
 
 
 @pytest.fixture(scope="session")

@@ -214,61 +214,48 @@ def test_fixed_parameter_after_initialisation_is_refused(slaves, log, starts, na
     assert_unchanged(s, twin, t, f"fixed {name}")
 
 
-@pytest.mark.parametrize("value", [1, 2, 3, 4])
-def test_model_after_initialisation_is_refused(slaves, log, value):
-    s, twin, t = stepping_pair(slaves, log, "SecondOrder")
+# The two selectors: (name, value reference, the value the instance runs with, values
+# to set after initialisation, values out of range, the value set before them, and the
+# configuration a fresh twin needs to run like it).
+SELECTORS = {
+    "tireModel": (fc.MODEL_VR, fc.MODELS["SecondOrder"], [1, 2, 3, 4], [0, 5, -1, 99, -(2**31)],
+                  fc.MODELS["RLT"], dict(model="RLT")),
+    "friction": (fc.FRICTION_VR, fc.FRICTIONS["Brush"], [1, 2, 3], [0, 4, -1, 99, -(2**31)],
+                 fc.FRICTIONS["Coulomb"], dict(model="DDT", friction="Coulomb")),
+}
+AFTER_INITIALISATION = [(n, v) for n, spec in SELECTORS.items() for v in spec[2]]
+OUT_OF_RANGE_SELECTIONS = [(n, v) for n, spec in SELECTORS.items() for v in spec[3]]
+
+
+@pytest.mark.parametrize("name,value", AFTER_INITIALISATION)
+def test_selector_after_initialisation_is_refused(slaves, log, name, value):
+    vr, running = SELECTORS[name][:2]
+    model = "SecondOrder" if name == "tireModel" else "DDT"
+    s, twin, t = stepping_pair(slaves, log, model)
     log.clear()
-    status, _ = fc.status_of(s.setInteger, [fc.MODEL_VR], [value])
-    assert_error_logged(log, status, ["tireModel"], float(value), f"tireModel = {value} after initialisation")
-    assert s.getInteger([fc.MODEL_VR]) == [fc.MODELS["SecondOrder"]]
-    assert_unchanged(s, twin, t, f"tireModel = {value}")
+    status, _ = fc.status_of(s.setInteger, [vr], [value])
+    assert_error_logged(log, status, [name], float(value), f"{name} = {value} after initialisation")
+    assert s.getInteger([vr]) == [running]
+    assert_unchanged(s, twin, t, f"{name} = {value}")
 
 
-@pytest.mark.parametrize("value", [0, 5, -1, 99, -(2**31)])
-def test_tire_model_out_of_range_is_refused(slaves, log, value):
+@pytest.mark.parametrize("name,value", OUT_OF_RANGE_SELECTIONS)
+def test_selector_out_of_range_is_refused(slaves, log, name, value):
+    vr, _, _, _, chosen, twin_configuration = SELECTORS[name]
     s = slaves(log=log, init=False)
     s.setupExperiment(startTime=0.0)
-    s.setInteger([fc.MODEL_VR], [fc.MODELS["RLT"]])
+    s.setInteger([vr], [chosen])
     log.clear()
-    status, _ = fc.status_of(s.setInteger, [fc.MODEL_VR], [value])
-    assert_error_logged(log, status, ["tireModel"], float(value), f"tireModel = {value}")
+    status, _ = fc.status_of(s.setInteger, [vr], [value])
+    assert_error_logged(log, status, [name], float(value), f"{name} = {value}")
     s.enterInitializationMode()
     log.clear()
-    status, _ = fc.status_of(s.setInteger, [fc.MODEL_VR], [value])
-    assert_error_logged(log, status, ["tireModel"], float(value), f"tireModel = {value} in initialisation mode")
-    assert s.getInteger([fc.MODEL_VR]) == [fc.MODELS["RLT"]]
+    status, _ = fc.status_of(s.setInteger, [vr], [value])
+    assert_error_logged(log, status, [name], float(value), f"{name} = {value} in initialisation mode")
+    assert s.getInteger([vr]) == [chosen]
     s.exitInitializationMode()
     Y, _ = fc.drive(s, 0.0, SEQ, 0, 40)
-    Yf, _ = fc.drive(slaves("RLT"), 0.0, SEQ, 0, 40)
-    assert np.array_equal(Y, Yf)
-
-
-@pytest.mark.parametrize("value", [1, 2, 3])
-def test_friction_after_initialisation_is_refused(slaves, log, value):
-    s, twin, t = stepping_pair(slaves, log, "DDT")
-    log.clear()
-    status, _ = fc.status_of(s.setInteger, [fc.FRICTION_VR], [value])
-    assert_error_logged(log, status, ["friction"], float(value), f"friction = {value} after initialisation")
-    assert s.getInteger([fc.FRICTION_VR]) == [fc.FRICTIONS["Brush"]]
-    assert_unchanged(s, twin, t, f"friction = {value}")
-
-
-@pytest.mark.parametrize("value", [0, 4, -1, 99, -(2**31)])
-def test_friction_out_of_range_is_refused(slaves, log, value):
-    s = slaves(log=log, init=False)
-    s.setupExperiment(startTime=0.0)
-    s.setInteger([fc.FRICTION_VR], [fc.FRICTIONS["Coulomb"]])
-    log.clear()
-    status, _ = fc.status_of(s.setInteger, [fc.FRICTION_VR], [value])
-    assert_error_logged(log, status, ["friction"], float(value), f"friction = {value}")
-    s.enterInitializationMode()
-    log.clear()
-    status, _ = fc.status_of(s.setInteger, [fc.FRICTION_VR], [value])
-    assert_error_logged(log, status, ["friction"], float(value), f"friction = {value} in initialisation mode")
-    assert s.getInteger([fc.FRICTION_VR]) == [fc.FRICTIONS["Coulomb"]]
-    s.exitInitializationMode()
-    Y, _ = fc.drive(s, 0.0, SEQ, 0, 40)
-    Yf, _ = fc.drive(slaves("DDT", friction="Coulomb"), 0.0, SEQ, 0, 40)
+    Yf, _ = fc.drive(slaves(**twin_configuration), 0.0, SEQ, 0, 40)
     assert np.array_equal(Y, Yf)
 
 

@@ -43,14 +43,6 @@ from cosim.cli import read_csv  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def example_fmu(request):
-    env = os.environ.get("TIRELAG_FMU")
-    if env:
-        return str(Path(env).resolve())
-    return request.getfixturevalue("fmu_path")
-
-
-@pytest.fixture(scope="module")
 def out_dir(tmp_path_factory):
     return tmp_path_factory.mktemp("examples_out")
 

@@ -254,11 +254,9 @@ impl Friction {
 
     /// The groups this model has, each with whether its elements are damped.
     pub fn groups(&self) -> impl Iterator<Item = Group> + '_ {
-        Group::ALL.into_iter().filter(|g| {
-            g.directions()
-                .iter()
-                .any(|&d| self.elements[d as usize].is_some())
-        })
+        Group::ALL
+            .into_iter()
+            .filter(|&g| self.group_members[g as usize].contains(&true))
     }
 
     /// Puts every branch at its element's state (at rest, or after states were set from
@@ -325,38 +323,17 @@ impl Friction {
     ///
     /// This is what friction adds to a step while the tire sticks: two dot products per
     /// element, and work per branch only while the branches differ (after sliding).
-    pub fn sticking_step(
-        &mut self,
-        system: &StateSpace,
-        transition: &StateMatrix,
-        limits: &Limits,
-        (start, end): (&StateVector, &StateVector),
-        (inputs, input_rates): (&DrivingVector, &DrivingVector),
-        h: f64,
-    ) -> bool {
+    pub fn sticking_step(&mut self, step: &LinearStep) -> bool {
         // The bound of a force over the step from its ends is trusted where the step is
         // short against the dynamics; a longer step goes to the event-locating path.
-        if self.state.any_sliding() || !self.short_against_dynamics(system, h) {
+        if self.state.any_sliding() || !self.short_against_dynamics(step.system, step.h) {
             return false;
         }
-        let offsets = match system.states {
-            2 => {
-                self.sticking_bounds::<2>(system, transition, limits, (start, end), (inputs, input_rates), h)
-            }
-            3 => {
-                self.sticking_bounds::<3>(system, transition, limits, (start, end), (inputs, input_rates), h)
-            }
-            4 => {
-                self.sticking_bounds::<4>(system, transition, limits, (start, end), (inputs, input_rates), h)
-            }
-            _ => self.sticking_bounds::<MAX_STATES>(
-                system,
-                transition,
-                limits,
-                (start, end),
-                (inputs, input_rates),
-                h,
-            ),
+        let offsets = match step.system.states {
+            2 => self.sticking_bounds::<2>(step),
+            3 => self.sticking_bounds::<3>(step),
+            4 => self.sticking_bounds::<4>(step),
+            _ => self.sticking_bounds::<MAX_STATES>(step),
         };
         match offsets {
             Some(offsets) => {
@@ -371,13 +348,18 @@ impl Friction {
     /// the branch offsets at the end of the step, or `None` if a limit may be reached.
     fn sticking_bounds<const N: usize>(
         &self,
-        system: &StateSpace,
-        transition: &StateMatrix,
-        limits: &Limits,
-        (start, end): (&StateVector, &StateVector),
-        (inputs, input_rates): (&DrivingVector, &DrivingVector),
-        h: f64,
+        step: &LinearStep,
     ) -> Option<[[f64; MAX_BRANCHES]; Direction::COUNT]> {
+        let LinearStep {
+            system,
+            transition,
+            limits,
+            start,
+            end,
+            inputs,
+            input_rates,
+            h,
+        } = *step;
         let u0 = [inputs[0], inputs[1], inputs[2]];
         let du = [input_rates[0], input_rates[1], input_rates[2]];
         let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
@@ -474,6 +456,21 @@ impl Friction {
 /// The longest step, in units of the fastest time constant, that the sticking check
 /// takes on its own ([`Friction::sticking_step`]).
 const MAX_STICKING_STEP: f64 = 0.5;
+
+/// An exact linear step just made, for the sticking check: the system and its step map's
+/// transition, the limits at the step's load, the states at both ends, and the driving
+/// inputs with their rates.
+#[derive(Clone, Copy)]
+pub struct LinearStep<'a> {
+    pub system: &'a StateSpace,
+    pub transition: &'a StateMatrix,
+    pub limits: &'a Limits,
+    pub start: &'a StateVector,
+    pub end: &'a StateVector,
+    pub inputs: &'a DrivingVector,
+    pub input_rates: &'a DrivingVector,
+    pub h: f64,
+}
 
 /// Whether state `k` neither drives nor is driven by the other states: then the step
 /// map's diagonal entry is `e^(A_kk h)`, the decay of a branch offset. (Block-triangular is

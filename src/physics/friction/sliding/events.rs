@@ -62,12 +62,11 @@ impl SlidingStep<'_> {
         window: (f64, f64),
         (g, i): (usize, usize),
     ) -> Option<f64> {
-        let scale = self.deflection_scale();
         let value = |tau: f64| {
             if tau <= 0.0 {
                 return self.events(t, z, modes)[g][i];
             }
-            self.substep_plain(t, z, tau, modes, scale)
+            self.substep_plain(t, z, tau, modes)
                 .map_or(f64::NEG_INFINITY, |z_tau| {
                     self.events(t + tau, &z_tau, modes)[g][i]
                 })
@@ -109,17 +108,14 @@ impl SlidingStep<'_> {
 
     /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
     /// event tolerance.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn crossing(
         &self,
         t: f64,
         z: &Vector,
         length: f64,
         modes: &Modes,
-        scale: f64,
         (g, i): (usize, usize),
-        start: f64,
-        end: f64,
+        (start, end): (f64, f64),
     ) -> f64 {
         let level = 0.5 * EVENT_TOLERANCE;
         let (mut lo, mut hi) = (0.0, length);
@@ -133,7 +129,7 @@ impl SlidingStep<'_> {
             if !(tau > lo && tau < hi) {
                 tau = 0.5 * (lo + hi);
             }
-            let Some(z_tau) = self.substep_plain(t, z, tau, modes, scale) else {
+            let Some(z_tau) = self.substep_plain(t, z, tau, modes) else {
                 break;
             };
             let e = self.events(t + tau, &z_tau, modes)[g][i] - level;

@@ -21,7 +21,6 @@ impl SlidingStep<'_> {
     /// the substep shows there. Between samples, a parabola through three consecutive
     /// event values finds a peak the samples straddle. Also gives the sample closest to
     /// its limit (within [`NEAR_EVENT`]) and the sample spacing.
-    #[allow(clippy::too_many_arguments)]
     fn midpoint(
         &self,
         t: f64,
@@ -74,16 +73,8 @@ impl SlidingStep<'_> {
     }
 
     /// The end of an extrapolated substep, without looking inside it for events.
-    pub(super) fn substep_plain(
-        &self,
-        t: f64,
-        z: &Vector,
-        length: f64,
-        modes: &Modes,
-        scale: f64,
-    ) -> Option<Vector> {
-        self.extrapolate(t, z, length, modes, scale, false)
-            .map(|(z, _, _, _)| z)
+    pub(super) fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes) -> Option<Vector> {
+        self.extrapolate(t, z, length, modes, false).map(|(z, _, _, _)| z)
     }
 
     /// An extrapolated substep, with where a limit may have been touched inside it and
@@ -94,9 +85,8 @@ impl SlidingStep<'_> {
         z: &Vector,
         length: f64,
         modes: &Modes,
-        scale: f64,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        self.extrapolate(t, z, length, modes, scale, true)
+        self.extrapolate(t, z, length, modes, true)
     }
 
     /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
@@ -108,7 +98,6 @@ impl SlidingStep<'_> {
         z: &Vector,
         length: f64,
         modes: &Modes,
-        scale: f64,
         look_inside: bool,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
         let (start_rates, start_events) = self.rates(t, z, modes);
@@ -132,7 +121,7 @@ impl SlidingStep<'_> {
                 let error = (0..SIZE)
                     .map(|c| {
                         (row[j][c] - row[j - 1][c]).abs()
-                            / (TOLERANCE * (scale + z[c].abs().max(row[j][c].abs())) + floor)
+                            / (TOLERANCE * (self.scale + z[c].abs().max(row[j][c].abs())) + floor)
                     })
                     .fold(0.0, f64::max);
                 if error <= 1.0 {

@@ -47,9 +47,8 @@ pub struct SlidingStep<'a> {
     pub limits: Limits,
     pub inputs: DrivingVector,
     pub input_rates: DrivingVector,
-    /// The largest state at the start of the step (for tolerances where no limit gives
-    /// a scale).
-    pub start_scale: f64,
+    /// The deflection scale of the error tolerance ([`SlidingStep::deflection_scale`]).
+    scale: f64,
     /// Each group and branch with its constants filled in (present directions, branch
     /// stiffness, damping and limit): what stays fixed over the step.
     templates: [[GroupInput; MAX_BRANCHES]; Group::COUNT],
@@ -91,7 +90,7 @@ impl<'a> SlidingStep<'a> {
             limits,
             inputs,
             input_rates,
-            start_scale,
+            scale: Self::deflection_scale(friction, &limits, start_scale),
             templates,
         }
     }
@@ -243,7 +242,6 @@ impl<'a> SlidingStep<'a> {
     ) -> Result<(), NotConverged> {
         let mut z = self.pack(x, sliders);
         let mut modes = sliders.sliding;
-        let scale = self.deflection_scale();
         let mut t = 0.0;
         // The midpoint rule's parasitic solution grows where a substep of the finest row
         // is long against the fastest time constant; its error estimate can then miss
@@ -257,8 +255,7 @@ impl<'a> SlidingStep<'a> {
                 break;
             }
             length = length.min(h - t).min(longest);
-            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, length, &modes, scale)
-            else {
+            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, length, &modes) else {
                 length *= 0.25;
                 if length <= 1e-15 * h {
                     return Err(NotConverged);
@@ -280,7 +277,7 @@ impl<'a> SlidingStep<'a> {
                     (sample - spacing, sample + spacing),
                     (g, i),
                 )
-                && let Some(z_at) = self.substep_plain(t, &z, at, &modes, scale)
+                && let Some(z_at) = self.substep_plain(t, &z, at, &modes)
             {
                 length = at;
                 z_end = z_at;
@@ -299,10 +296,8 @@ impl<'a> SlidingStep<'a> {
                                 &z,
                                 length,
                                 &modes,
-                                scale,
                                 (g, i),
-                                start_events[g][i],
-                                end_events[g][i],
+                                (start_events[g][i], end_events[g][i]),
                             )
                         };
                         if first.is_none_or(|(best, _, _)| at < best) {
@@ -321,7 +316,7 @@ impl<'a> SlidingStep<'a> {
                 }
                 Some((at, g, i)) => {
                     if at > 0.0 {
-                        let Some(z_at) = self.substep_plain(t, &z, at, &modes, scale) else {
+                        let Some(z_at) = self.substep_plain(t, &z, at, &modes) else {
                             return Err(NotConverged);
                         };
                         z = z_at;
@@ -348,18 +343,17 @@ impl<'a> SlidingStep<'a> {
     /// A deflection typical of the elements: the largest elastic travel to a limit.
     /// Without friction (zero limits) the states' own size at the start of the step
     /// takes its place, so that the tolerance is never far below rounding.
-    fn deflection_scale(&self) -> f64 {
-        let elastic = self
-            .friction
+    fn deflection_scale(friction: &Friction, limits: &Limits, start_scale: f64) -> f64 {
+        let elastic = friction
             .elements
             .iter()
             .enumerate()
-            .filter_map(|(d, e)| e.map(|e| self.limits.0[d] / e.stiffness.max(f64::MIN_POSITIVE)))
+            .filter_map(|(d, e)| e.map(|e| limits.0[d] / e.stiffness.max(f64::MIN_POSITIVE)))
             .fold(0.0, f64::max);
         if elastic > 0.0 {
             elastic
         } else {
-            self.start_scale.max(1e-9)
+            start_scale.max(1e-9)
         }
     }
 
