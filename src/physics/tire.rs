@@ -549,13 +549,14 @@ impl Tire {
             match mode {
                 ContactMode::LiftedOff => friction.lift_off(h / LIFT_OFF_RELAXATION_TIME),
                 ContactMode::Rolling => {
-                    let limits = Limits::at(&self.parameters, load);
                     system.at(point);
                     let (state_space, map) = system.current_and_step_map();
+                    let parameters = &self.parameters;
+                    friction.prepare(made_for, state_space, h, || Limits::at(parameters, load));
+                    let limits = friction.limits();
                     let linear = LinearStep {
                         system: state_space,
                         transition: &map.transition,
-                        limits: &limits,
                         start: &self.states,
                         end: &next_states,
                         inputs: &u0,

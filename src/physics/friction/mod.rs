@@ -28,7 +28,7 @@ pub mod sliding;
 
 use super::brush::{BRUSH_BRANCHES, Branch};
 use super::parameters::{Parameter, Parameters};
-use super::signals::Output;
+use super::signals::{DrivingInput, Output};
 use super::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
 
 /// The friction law; the values are those of the FMI type `TireFriction`.
@@ -133,7 +133,7 @@ pub type ContactElements = [Option<ContactElement>; Direction::COUNT];
 
 /// The friction limits at a normal load: `Fmax_x`, `Fmax_y` (N) and the yaw moment's
 /// (N.m), by [`Direction`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Limits(pub [f64; Direction::COUNT]);
 
 impl Limits {
@@ -163,6 +163,52 @@ struct PresentElement {
     damping: f64,
 }
 
+/// The sticking check at one operating point and step size ([`Friction::prepare`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+struct StickingCheck {
+    /// The bits of vx, Fz and h it was made for (`None`: not made yet).
+    made_for: Option<[u64; 3]>,
+    limits: Limits,
+    /// Whether the step is short against the dynamics, so that the force bound holds.
+    short: bool,
+    /// Whether `rows` are made: only from the second step at the same point, since a
+    /// point that changes every step is cheaper to check from the system directly.
+    rows_ready: bool,
+    /// By present element.
+    rows: [ElementRows; Direction::COUNT],
+    /// One over the first breakpoint's share of the limit, by [`Direction`]: what turns a
+    /// bound on the element force into the utilisation of its first branch.
+    scale: [f64; Direction::COUNT],
+}
+
+/// A row over the states (the first [`MAX_STATES`] entries) and the driving inputs.
+type Row = [f64; MAX_STATES + DrivingInput::COUNT];
+
+/// An element's force `force . [x, u]` and its rate `rate . [x, u] + rate_input_rates . du`.
+/// A spring's force is its stiffness times its state.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct ElementRows {
+    direction: usize,
+    state: usize,
+    stiffness: f64,
+    damped: bool,
+    force: Row,
+    rate: Row,
+    rate_input_rates: [f64; DrivingInput::COUNT],
+}
+
+impl ElementRows {
+    /// `row . [x, u]` over the first `N` states.
+    #[inline(always)]
+    fn apply<const N: usize>(row: &Row, x: &StateVector, u: &[f64; 3]) -> f64 {
+        let mut sum = row[MAX_STATES] * u[0] + row[MAX_STATES + 1] * u[1] + row[MAX_STATES + 2] * u[2];
+        for j in 0..N {
+            sum += row[j] * x[j];
+        }
+        sum
+    }
+}
+
 /// Each branch's deflection and whether its groups slide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SliderState {
@@ -178,6 +224,11 @@ impl SliderState {
         offsets: [[0.0; MAX_BRANCHES]; Direction::COUNT],
         sliding: [[false; MAX_BRANCHES]; Group::COUNT],
     };
+
+    /// Whether every branch sticks at its element's state (no offsets, nothing sliding).
+    pub fn together(&self) -> bool {
+        self.offsets.iter().flatten().all(|&o| o == 0.0) && !self.any_sliding()
+    }
 
     pub fn any_sliding(&self) -> bool {
         self.sliding.iter().flatten().any(|&s| s)
@@ -203,6 +254,8 @@ pub struct Friction {
     fastest_slide_rate: f64,
     pub elements: ContactElements,
     pub state: SliderState,
+    /// The sticking check made for the last step map ([`Friction::prepare`]).
+    check: StickingCheck,
 }
 
 impl Friction {
@@ -249,6 +302,7 @@ impl Friction {
             }),
             elements,
             state: SliderState::AT_REST,
+            check: StickingCheck::default(),
         })
     }
 
@@ -315,18 +369,115 @@ impl Friction {
         self.state.sliding = SliderState::AT_REST.sliding;
     }
 
+    /// Makes the sticking check for a step map (`made_for`: the bits of vx, Fz and h that
+    /// decide it): the limits at the step's load, whether the step is short against the
+    /// dynamics, and each element's force and force rate as rows over the states and
+    /// inputs. Kept while `made_for` does not change, so a step at a constant operating
+    /// point only applies the rows.
+    pub fn prepare(
+        &mut self,
+        made_for: [u64; 3],
+        system: &StateSpace,
+        h: f64,
+        limits: impl FnOnce() -> Limits,
+    ) {
+        if self.check.made_for == Some(made_for) {
+            // A second step at the same point: the rows pay off from now on.
+            if !self.check.rows_ready {
+                match system.states {
+                    2 => self.prepare_rows::<2>(system),
+                    3 => self.prepare_rows::<3>(system),
+                    4 => self.prepare_rows::<4>(system),
+                    _ => self.prepare_rows::<MAX_STATES>(system),
+                }
+                self.check.rows_ready = true;
+            }
+            return;
+        }
+        let limits = limits();
+        self.check.short = self.short_against_dynamics(system, h);
+        self.check.scale = limits.0.map(|limit| self.inverse_first_breakpoint / limit);
+        self.check.limits = limits;
+        self.check.made_for = Some(made_for);
+        self.check.rows_ready = false;
+    }
+
+    /// The rows of [`Friction::prepare`] for a model of `N` states.
+    fn prepare_rows<const N: usize>(&mut self, system: &StateSpace) {
+        let a = system.a.fixed_view::<N, N>(0, 0);
+        let b = system.b.fixed_view::<N, { DrivingInput::COUNT }>(0, 0);
+        for (rows, element) in self
+            .check
+            .rows
+            .iter_mut()
+            .zip(&self.present[..self.present_count])
+        {
+            let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
+            rows.direction = element.direction;
+            rows.state = k;
+            rows.stiffness = stiffness;
+            rows.damped = damping > 0.0;
+            let (a_k, b_k) = (a.row(k), b.row(k));
+            // A spring's force C U has the rate C dU/dt, dU/dt = A_k x + B_k u.
+            for j in 0..N {
+                rows.rate[j] = stiffness * a_k[j];
+            }
+            for i in 0..DrivingInput::COUNT {
+                rows.rate[MAX_STATES + i] = stiffness * b_k[i];
+            }
+            if !rows.damped {
+                continue;
+            }
+            // A spring-damper's force C U + D dU/dt has the rate C dU/dt + D d2U/dt2,
+            // d2U/dt2 = (A_k A) x + (A_k B) u + B_k du.
+            let (second_states, second_inputs) = (a_k * a, a_k * b);
+            for j in 0..N {
+                rows.force[j] = damping * a_k[j];
+                rows.rate[j] += damping * second_states[j];
+            }
+            rows.force[k] += stiffness;
+            for i in 0..DrivingInput::COUNT {
+                rows.force[MAX_STATES + i] = damping * b_k[i];
+                rows.rate[MAX_STATES + i] += damping * second_inputs[i];
+                rows.rate_input_rates[i] = damping * b_k[i];
+            }
+        }
+    }
+
+    /// The limits of the step last prepared ([`Friction::prepare`]).
+    pub fn limits(&self) -> Limits {
+        self.check.limits
+    }
+
     /// After an exact linear step from `start` to `end` (`transition` its map) while
-    /// every group sticks: if no branch force can have reached its limit within the step
-    /// ([`force_bound`]), moves the branch offsets to the end of the step (each `b_i - U`
-    /// decays with its element's relaxation) and returns true; otherwise (or if a group
-    /// slides) changes nothing and returns false.
+    /// every group sticks, and [`Friction::prepare`] for its step map: if no branch force
+    /// can have reached its limit within the step ([`force_bound`]), moves the branch
+    /// offsets to the end of the step (each `b_i - U` decays with its element's
+    /// relaxation) and returns true; otherwise (or if a group slides) changes nothing and
+    /// returns false.
     ///
-    /// This is what friction adds to a step while the tire sticks: two dot products per
-    /// element, and work per branch only while the branches differ (after sliding).
+    /// While the branches move together (no offsets, the usual case) this is four dot
+    /// products per element; work per branch only while they differ (after sliding).
     pub fn sticking_step(&mut self, step: &LinearStep) -> bool {
         // The bound of a force over the step from its ends is trusted where the step is
         // short against the dynamics; a longer step goes to the event-locating path.
-        if self.state.any_sliding() || !self.short_against_dynamics(step.system, step.h) {
+        if !self.check.short {
+            return false;
+        }
+        if self.state.together() {
+            let bounds = match (step.system.states, self.check.rows_ready) {
+                (2, true) => self.together_bounds::<2>(step),
+                (3, true) => self.together_bounds::<3>(step),
+                (4, true) => self.together_bounds::<4>(step),
+                (_, true) => self.together_bounds::<MAX_STATES>(step),
+                (2, false) => self.together_bounds_direct::<2>(step),
+                (3, false) => self.together_bounds_direct::<3>(step),
+                (4, false) => self.together_bounds_direct::<4>(step),
+                (_, false) => self.together_bounds_direct::<MAX_STATES>(step),
+            };
+            return self.within_limits(&bounds);
+        }
+        if self.state.any_sliding() {
             return false;
         }
         let offsets = match step.system.states {
@@ -344,16 +495,119 @@ impl Friction {
         }
     }
 
+    /// For [`Friction::sticking_step`] while every branch is at its element's state, from
+    /// the rows: a bound on each direction's element force over the step, as a share of
+    /// its first branch's limit (each branch carries `w_i` of the element force, so the
+    /// first breakpoint decides).
+    #[inline(never)]
+    fn together_bounds<const N: usize>(&self, step: &LinearStep) -> [f64; Direction::COUNT] {
+        let LinearStep {
+            start,
+            end,
+            inputs,
+            input_rates,
+            h,
+            ..
+        } = *step;
+        let u0 = [inputs[0], inputs[1], inputs[2]];
+        let du = [input_rates[0], input_rates[1], input_rates[2]];
+        let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let mut scaled_bound = [0.0; Direction::COUNT];
+        for rows in &self.check.rows[..self.present_count] {
+            let (f0, f1, mut r0, mut r1) = if rows.damped {
+                let change = rows.rate_input_rates[0] * du[0]
+                    + rows.rate_input_rates[1] * du[1]
+                    + rows.rate_input_rates[2] * du[2];
+                (
+                    ElementRows::apply::<N>(&rows.force, start, &u0),
+                    ElementRows::apply::<N>(&rows.force, end, &u1),
+                    change,
+                    change,
+                )
+            } else {
+                (
+                    rows.stiffness * start[rows.state],
+                    rows.stiffness * end[rows.state],
+                    0.0,
+                    0.0,
+                )
+            };
+            r0 += ElementRows::apply::<N>(&rows.rate, start, &u0);
+            r1 += ElementRows::apply::<N>(&rows.rate, end, &u1);
+            scaled_bound[rows.direction] = force_bound(f0, f1, r0, r1, h) * self.check.scale[rows.direction];
+        }
+        scaled_bound
+    }
+
+    /// [`Friction::together_bounds`] from the system itself, without the rows: the state
+    /// rates at both ends, then each element's force and force rate.
+    #[inline(never)]
+    fn together_bounds_direct<const N: usize>(&self, step: &LinearStep) -> [f64; Direction::COUNT] {
+        let LinearStep {
+            system,
+            start,
+            end,
+            inputs,
+            input_rates,
+            h,
+            ..
+        } = *step;
+        let a = system.a.fixed_view::<N, N>(0, 0);
+        let b = system.b.fixed_view::<N, { DrivingInput::COUNT }>(0, 0);
+        let (x0, x1) = (start.fixed_rows::<N>(0), end.fixed_rows::<N>(0));
+        let u1 = inputs + input_rates * h;
+        let (rates0, rates1) = (a * x0 + b * inputs, a * x1 + b * u1);
+        let mut scaled_bound = [0.0; Direction::COUNT];
+        for element in &self.present[..self.present_count] {
+            let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
+            let (f0, f1, r0, r1) = if damping > 0.0 {
+                let change = b.row(k).dot(&input_rates.transpose());
+                (
+                    stiffness * x0[k] + damping * rates0[k],
+                    stiffness * x1[k] + damping * rates1[k],
+                    stiffness * rates0[k] + damping * (a.row(k).dot(&rates0.transpose()) + change),
+                    stiffness * rates1[k] + damping * (a.row(k).dot(&rates1.transpose()) + change),
+                )
+            } else {
+                (
+                    stiffness * x0[k],
+                    stiffness * x1[k],
+                    stiffness * rates0[k],
+                    stiffness * rates1[k],
+                )
+            };
+            let d = element.direction;
+            scaled_bound[d] = force_bound(f0, f1, r0, r1, h) * self.check.scale[d];
+        }
+        scaled_bound
+    }
+
+    /// Whether every group's first branches stay inside their limit, given a bound on each
+    /// direction's force as a share of its first-branch limit.
+    fn within_limits(&self, scaled_bound: &[f64; Direction::COUNT]) -> bool {
+        self.group_members.iter().all(|directions| {
+            let mut utilisation = 0.0;
+            for (d, &member) in directions.iter().enumerate() {
+                if member {
+                    utilisation += scaled_bound[d] * scaled_bound[d];
+                }
+            }
+            // Also refused for NaN (a zero limit).
+            utilisation < 1.0
+        })
+    }
+
     /// The body of [`Friction::sticking_step`] for a model of `N` states (sized loops):
     /// the branch offsets at the end of the step, or `None` if a limit may be reached.
+    #[inline(never)]
     fn sticking_bounds<const N: usize>(
         &self,
         step: &LinearStep,
     ) -> Option<[[f64; MAX_BRANCHES]; Direction::COUNT]> {
+        let limits = &self.check.limits;
         let LinearStep {
             system,
             transition,
-            limits,
             start,
             end,
             inputs,
@@ -458,13 +712,11 @@ impl Friction {
 const MAX_STICKING_STEP: f64 = 0.5;
 
 /// An exact linear step just made, for the sticking check: the system and its step map's
-/// transition, the limits at the step's load, the states at both ends, and the driving
-/// inputs with their rates.
+/// transition, the states at both ends, and the driving inputs with their rates.
 #[derive(Clone, Copy)]
 pub struct LinearStep<'a> {
     pub system: &'a StateSpace,
     pub transition: &'a StateMatrix,
-    pub limits: &'a Limits,
     pub start: &'a StateVector,
     pub end: &'a StateVector,
     pub inputs: &'a DrivingVector,
@@ -488,4 +740,65 @@ fn decoupled(system: &StateSpace, k: usize) -> bool {
 /// event.
 pub fn force_bound(start: f64, end: f64, start_rate: f64, end_rate: f64, h: f64) -> f64 {
     start.abs().max(end.abs()) + 0.25 * h * (start_rate.abs() + end_rate.abs())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::{ModelKind, Parameter, Parameters, Tire};
+
+    /// The rows made once per operating point and the direct evaluation from the system
+    /// bound the same forces, for every model and law, held and ramped inputs.
+    #[test]
+    fn rows_and_direct_evaluation_bound_the_same_forces() {
+        for model in ModelKind::ALL {
+            for law in [FrictionLaw::Coulomb, FrictionLaw::Brush] {
+                let parameters = Parameters::default().with_model(model).with_friction(law);
+                let load = 0.8 * parameters.get(Parameter::NominalLoad);
+                let mut tire = Tire::new(parameters.clone()).unwrap();
+                let system = tire.system_at(7.0, load);
+                let elements = model.equations().contact_elements(&parameters);
+                let mut friction = Friction::new(law, elements).unwrap();
+                let h: f64 = 1e-3;
+                let key = [7.0_f64.to_bits(), load.to_bits(), h.to_bits()];
+                friction.prepare(key, &system, h, || Limits::at(&parameters, load));
+                assert!(!friction.check.rows_ready, "rows only from the second step");
+                friction.prepare(key, &system, h, || unreachable!("limits kept"));
+                assert!(friction.check.rows_ready);
+                let n = system.states;
+                let state = |phase: f64| {
+                    StateVector::from_fn(|i, _| {
+                        if i < n {
+                            1e-3 * (phase + i as f64).sin()
+                        } else {
+                            0.0
+                        }
+                    })
+                };
+                let (start, end) = (state(0.3), state(1.7));
+                for input_rates in [DrivingVector::zeros(), DrivingVector::new(0.4, -0.2, 0.3)] {
+                    let step = LinearStep {
+                        system: &system,
+                        transition: &system.a,
+                        start: &start,
+                        end: &end,
+                        inputs: &DrivingVector::new(0.05, -0.02, 0.01),
+                        input_rates: &input_rates,
+                        h,
+                    };
+                    let rows = friction.together_bounds::<MAX_STATES>(&step);
+                    let direct = friction.together_bounds_direct::<MAX_STATES>(&step);
+                    for d in 0..Direction::COUNT {
+                        assert!(
+                            (rows[d] - direct[d]).abs() <= 1e-12 * rows[d].abs().max(1e-300),
+                            "{model:?} {law:?} direction {d}: {} against {}",
+                            rows[d],
+                            direct[d]
+                        );
+                        assert_eq!(rows[d] > 0.0, elements[d].is_some(), "{model:?} {law:?} {d}");
+                    }
+                }
+            }
+        }
+    }
 }

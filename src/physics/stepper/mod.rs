@@ -46,13 +46,35 @@ pub struct StepMap {
 
 impl StepMap {
     pub fn advance(&self, x: &StateVector, u0: &DrivingVector, du: &DrivingVector) -> StateVector {
-        // Column by column over the states in use; the ramp only when an input ramps.
-        let mut next = self.hold * u0;
-        for (j, &xj) in x.iter().enumerate().take(self.states) {
-            next.axpy(xj, &self.transition.column(j), 1.0);
+        match self.states {
+            1 => self.advance_sized::<1>(x, u0, du),
+            2 => self.advance_sized::<2>(x, u0, du),
+            3 => self.advance_sized::<3>(x, u0, du),
+            4 => self.advance_sized::<4>(x, u0, du),
+            _ => self.advance_sized::<MAX_STATES>(x, u0, du),
         }
-        if *du != DrivingVector::zeros() {
-            next += self.ramp * du;
+    }
+
+    /// [`StepMap::advance`] over the `N` states in use (the rest stay zero), row by row:
+    /// hold, then transition, then ramp, each summed in column order.
+    #[inline]
+    fn advance_sized<const N: usize>(
+        &self,
+        x: &StateVector,
+        u0: &DrivingVector,
+        du: &DrivingVector,
+    ) -> StateVector {
+        let mut next = StateVector::zeros();
+        let ramping = *du != DrivingVector::zeros();
+        for i in 0..N {
+            let mut value = self.hold[(i, 0)] * u0[0] + self.hold[(i, 1)] * u0[1] + self.hold[(i, 2)] * u0[2];
+            for j in 0..N {
+                value += self.transition[(i, j)] * x[j];
+            }
+            if ramping {
+                value += self.ramp[(i, 0)] * du[0] + self.ramp[(i, 1)] * du[1] + self.ramp[(i, 2)] * du[2];
+            }
+            next[i] = value;
         }
         next
     }
