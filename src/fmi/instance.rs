@@ -8,8 +8,8 @@ use super::snapshot::Snapshot;
 use super::state_machine::{Call, Phase};
 use super::status::{CallResult, Rejection, Status};
 use super::variables::{
-    Causality, INPUT_BOUNDS, INPUT_BY_VALUE_REFERENCE, NO_SIGNAL, OUTPUT_BY_VALUE_REFERENCE,
-    OUTPUT_VALUE_REFERENCES, Role, VARIABLES, ValueType, Variable,
+    Causality, INPUT_BOUNDS, INPUT_BY_VALUE_REFERENCE, INPUT_VALUE_REFERENCES, NO_SIGNAL,
+    OUTPUT_BY_VALUE_REFERENCE, OUTPUT_VALUE_REFERENCES, Role, VARIABLES, ValueType, Variable,
 };
 
 /// How far `currentCommunicationPoint` may be from the instance's time, relative to
@@ -75,6 +75,16 @@ fn lookup(value_reference: u32, expected: ValueType) -> CallResult<Variable> {
         )));
     }
     Ok(variable)
+}
+
+/// Whether two lists of value references are the same, without a branch per entry (an
+/// array comparison becomes a memcmp call).
+#[inline]
+fn same_references<const N: usize>(refs: &[u32; N], expected: &[u32; N]) -> bool {
+    refs.iter()
+        .zip(expected)
+        .fold(0, |differ, (a, b)| differ | (a ^ b))
+        == 0
 }
 
 fn same_length(what: &str, a: usize, b: usize) -> CallResult {
@@ -255,7 +265,9 @@ impl Instance {
         }
         let outputs = self.tire.outputs_ref();
         // All outputs in their declared order, as importers usually ask: one copy.
-        if refs.len() == Output::COUNT && refs.iter().zip(OUTPUT_VALUE_REFERENCES).all(|(&a, b)| a == b) {
+        if let Ok(refs) = <&[u32; Output::COUNT]>::try_from(refs)
+            && same_references(refs, &OUTPUT_VALUE_REFERENCES)
+        {
             values.copy_from_slice(outputs.as_slice());
             return true;
         }
@@ -365,6 +377,27 @@ impl Instance {
     fn set_inputs_fast(&mut self, refs: &[u32], values: &[f64]) -> bool {
         if refs.len() != values.len() || !Call::SetValues.allows(self.phase) {
             return false;
+        }
+        // All inputs in their declared order, as importers usually set them: checked and
+        // written at once.
+        if let (Ok(refs), Ok(values)) = (
+            <&[u32; Input::COUNT]>::try_from(refs),
+            <&[f64; Input::COUNT]>::try_from(values),
+        ) && same_references(refs, &INPUT_VALUE_REFERENCES)
+        {
+            // NaN fails both comparisons; `&` keeps the five checks free of branches.
+            let within = values
+                .iter()
+                .zip(INPUT_BOUNDS)
+                .fold(true, |all, (&value, [min, max])| {
+                    all & (value >= min) & (value <= max)
+                });
+            if !within {
+                return false;
+            }
+            self.tire.set_inputs(*values);
+            self.normal_load_set = true;
+            return true;
         }
         // Staged in a copy and written at once: one pass, and nothing changes on refusal.
         let mut inputs = self.tire.inputs();

@@ -182,6 +182,19 @@ pub const OUTPUT_VALUE_REFERENCES: [u32; Output::COUNT] = {
     references
 };
 
+/// The value reference of each input, in [`Input`] order.
+pub const INPUT_VALUE_REFERENCES: [u32; Input::COUNT] = {
+    let mut references = [0; Input::COUNT];
+    let mut i = 0;
+    while i < VARIABLES.len() {
+        if let Role::Input(input) = VARIABLES[i].variable.role() {
+            references[input as usize] = VARIABLES[i].value_reference;
+        }
+        i += 1;
+    }
+    references
+};
+
 /// `[min, max]` of each input (`Input as usize`); the largest finite values where the
 /// model description gives no bound, so that a comparison also refuses infinities.
 pub const INPUT_BOUNDS: [[f64; 2]; Input::COUNT] = {

@@ -98,6 +98,8 @@ pub struct Tire {
     states: StateVector,
     inputs: [f64; Input::COUNT],
     input_rates: [f64; Input::COUNT],
+    /// Whether any input rate is not zero.
+    ramping: bool,
     /// What the step map of the mode last stepped in was made for (`None`: not valid).
     step_made_for: Option<StepKey>,
     outputs: Option<OutputVector>,
@@ -129,6 +131,7 @@ impl Tire {
             states: StateVector::zeros(),
             inputs,
             input_rates: [0.0; Input::COUNT],
+            ramping: false,
             step_made_for: None,
             outputs: None,
             friction,
@@ -230,6 +233,7 @@ impl Tire {
     /// ramps of vy, steerRate and vsx; vx and Fz are taken at the middle of the step.
     pub fn set_input_rate(&mut self, input: Input, rate: f64) {
         self.input_rates[input as usize] = rate;
+        self.ramping = self.input_rates.iter().any(|&r| r != 0.0);
     }
 
     pub fn contact_mode(&self) -> ContactMode {
@@ -502,45 +506,47 @@ impl Tire {
     /// Advances the states by `h` seconds with the inputs held (or ramped at their rates),
     /// and the inputs to their values at the end of the step. On error nothing changes.
     pub fn step(&mut self, h: f64) -> Result<(), StepError> {
-        if !(h > 0.0 && h.is_finite()) {
+        if !(h > 0.0 && h <= f64::MAX) {
             return Err(StepError::StepSize(h));
         }
-        let ramping = self.input_rates != [0.0; Input::COUNT];
+        let ramping = self.ramping;
         let middle = |input: Input| self.input(input) + 0.5 * h * self.input_rate(input);
         let (vx, load) = if ramping {
             (middle(Input::Vx), middle(Input::Fz))
         } else {
             (self.input(Input::Vx), self.input(Input::Fz))
         };
-        let point = self.operating_point(vx, load);
         let mode = ContactMode::from_load(load);
         let made_for: StepKey = [vx.to_bits(), load.to_bits(), h.to_bits()];
-        let fresh = self
-            .step_made_for
-            .is_some_and(|key| key[0] == made_for[0] && key[1] == made_for[1] && key[2] == made_for[2]);
+        let fresh = self.step_made_for == Some(made_for);
+        // The operating point only for a new map; a map in hand knows its own.
+        let point = (!fresh).then(|| self.operating_point(vx, load));
         let system = match mode {
             ContactMode::Rolling => &mut self.rolling,
             ContactMode::LiftedOff => &mut self.lifted_off,
         };
-        let map = if fresh {
-            system.step_map()
-        } else {
+        if let Some(point) = point {
             // Invalid until made: a refused step must not leave a half-made map behind.
             self.step_made_for = None;
-            system.make_step_map(point, h)
-        };
+            system.make_step_map(point, h);
+        }
+        let (state_space, map) = system.at_step_map_point();
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
         let mut next_states = map.advance(&self.states, &u0, &du);
         let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
+        // States past the model's count stay zero; held inputs stay as they were set.
+        if !finite(&next_states.as_slice()[..state_space.states]) {
+            return Err(StepError::NotFinite);
+        }
         let mut next_inputs = self.inputs;
         if ramping {
             for (value, rate) in next_inputs.iter_mut().zip(self.input_rates) {
                 *value += h * rate;
             }
-        }
-        if !(finite(next_states.as_slice()) && finite(&next_inputs)) {
-            return Err(StepError::NotFinite);
+            if !finite(&next_inputs) {
+                return Err(StepError::NotFinite);
+            }
         }
         // Friction: the sticking check commits the branches only if the step stands; a
         // step with sliding works on copies until it has succeeded.
@@ -549,11 +555,8 @@ impl Tire {
             match mode {
                 ContactMode::LiftedOff => friction.lift_off(h / LIFT_OFF_RELAXATION_TIME),
                 ContactMode::Rolling => {
-                    system.at(point);
-                    let (state_space, map) = system.current_and_step_map();
                     let parameters = &self.parameters;
                     friction.prepare(made_for, state_space, h, || Limits::at(parameters, load));
-                    let limits = friction.limits();
                     let linear = LinearStep {
                         system: state_space,
                         transition: &map.transition,
@@ -566,6 +569,7 @@ impl Tire {
                     if !friction.sticking_step(&linear) {
                         let mut sliders = friction.state;
                         let mut start = self.states;
+                        let limits = friction.limits();
                         let sliding_step =
                             SlidingStep::new(state_space, friction, limits, (u0, du), self.states.amax());
                         sliding_step.prepare(&mut start, &mut sliders);
@@ -585,10 +589,8 @@ impl Tire {
         // Held inputs end the step where they started: the outputs there come from the
         // system already at hand, so compute them now rather than look it up again.
         // (After a step with sliding the limits shape them: they are computed on demand.)
-        self.outputs = (!ramping && !sliding).then(|| system.at(point).outputs(&next_states, &u0));
-        if !fresh {
-            self.step_made_for = Some(made_for);
-        }
+        self.outputs = (!ramping && !sliding).then(|| state_space.outputs(&next_states, &u0));
+        self.step_made_for = Some(made_for);
         self.states = next_states;
         self.inputs = next_inputs;
         Ok(())

@@ -227,7 +227,14 @@ impl SliderState {
 
     /// Whether every branch sticks at its element's state (no offsets, nothing sliding).
     pub fn together(&self) -> bool {
-        self.offsets.iter().flatten().all(|&o| o == 0.0) && !self.any_sliding()
+        // Branch-free folds: every offset +-0 and no flag set.
+        let offsets = self
+            .offsets
+            .iter()
+            .flatten()
+            .fold(0, |any, o| any | (o.to_bits() << 1));
+        let sliding = self.sliding.iter().flatten().fold(false, |any, &s| any | s);
+        offsets == 0 && !sliding
     }
 
     pub fn any_sliding(&self) -> bool {
@@ -561,6 +568,7 @@ impl Friction {
         for element in &self.present[..self.present_count] {
             let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
             let (f0, f1, r0, r1) = if damping > 0.0 {
+                // The damper's force rate needs the states' second derivatives.
                 let change = b.row(k).dot(&input_rates.transpose());
                 (
                     stiffness * x0[k] + damping * rates0[k],
@@ -583,15 +591,15 @@ impl Friction {
     }
 
     /// Whether every group's first branches stay inside their limit, given a bound on each
-    /// direction's force as a share of its first-branch limit.
+    /// direction's force as a share of its first-branch limit (zero for a direction the
+    /// model does not have).
     fn within_limits(&self, scaled_bound: &[f64; Direction::COUNT]) -> bool {
-        self.group_members.iter().all(|directions| {
-            let mut utilisation = 0.0;
-            for (d, &member) in directions.iter().enumerate() {
-                if member {
-                    utilisation += scaled_bound[d] * scaled_bound[d];
-                }
-            }
+        Group::ALL.iter().all(|group| {
+            let utilisation: f64 = group
+                .directions()
+                .iter()
+                .map(|&d| scaled_bound[d as usize] * scaled_bound[d as usize])
+                .sum();
             // Also refused for NaN (a zero limit).
             utilisation < 1.0
         })

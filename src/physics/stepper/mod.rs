@@ -214,6 +214,9 @@ pub struct ContactSystem {
     current_point: OperatingPoint,
     /// Made for these blocks only, so the entries between blocks stay zero.
     map: StepMap,
+    /// The operating point the map was made at, and whether `current` is still there.
+    map_point: OperatingPoint,
+    current_at_map_point: bool,
 }
 
 impl ContactSystem {
@@ -232,6 +235,8 @@ impl ContactSystem {
             current,
             current_point,
             map,
+            map_point: current_point,
+            current_at_map_point: true,
         }
     }
 
@@ -250,6 +255,7 @@ impl ContactSystem {
         if !point.same_as(&self.current_point) {
             self.affine.evaluate(point, &mut self.current);
             self.current_point = point;
+            self.current_at_map_point = false;
         }
         &self.current
     }
@@ -258,7 +264,20 @@ impl ContactSystem {
     pub fn make_step_map(&mut self, point: OperatingPoint, h: f64) -> &StepMap {
         self.at(point);
         self.map.make_blocks(&self.current, &self.blocks, h);
+        self.map_point = point;
+        self.current_at_map_point = true;
         &self.map
+    }
+
+    /// The system at the operating point of the step map last made, and that map.
+    #[inline]
+    pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap) {
+        if !self.current_at_map_point {
+            self.affine.evaluate(self.map_point, &mut self.current);
+            self.current_point = self.map_point;
+            self.current_at_map_point = true;
+        }
+        (&self.current, &self.map)
     }
 
     /// The step map last made.
