@@ -457,7 +457,8 @@ impl Instance {
                 self.time
             )));
         }
-        if !(step_size > 0.0 && step_size.is_finite()) {
+        // (Two comparisons: `is_finite` classifies the number.)
+        if !(step_size > 0.0 && step_size <= f64::MAX) {
             return Err(Rejection::error(format!(
                 "communicationStepSize {step_size} s must be finite and > 0"
             )));

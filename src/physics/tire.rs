@@ -117,7 +117,11 @@ impl Tire {
         let mut inputs = [0.0; Input::COUNT];
         inputs[Input::Fz as usize] = parameters.get(Parameter::NominalLoad);
         let load_law = LoadLaw::new(&parameters);
-        let friction = Friction::new(parameters.friction, model.contact_elements(&parameters));
+        let friction = Friction::new(
+            parameters.friction,
+            model.contact_elements(&parameters),
+            &affine.state_coupling(),
+        );
         let rest = (0.0, 0.0);
         Ok(Self {
             load_law,
@@ -140,7 +144,7 @@ impl Tire {
 
     /// The friction sliders' state (`None` for the Unlimited law).
     pub fn sliders(&self) -> Option<&SliderState> {
-        self.friction.as_ref().map(|f| &f.state)
+        self.friction.as_ref().map(|f| f.state())
     }
 
     /// Replaces the sliders' state (after [`Tire::set_states`], which puts every branch at
@@ -152,7 +156,7 @@ impl Tire {
         if let Some(bad) = sliders.offsets.iter().flatten().find(|v| !v.is_finite()) {
             return Err(format!("branch offset {bad} is not finite"));
         }
-        friction.state = *sliders;
+        friction.set_state(*sliders);
         self.outputs = None;
         Ok(())
     }
@@ -294,7 +298,7 @@ impl Tire {
     pub fn outputs_ref(&mut self) -> &OutputVector {
         if self.outputs.is_none() {
             let states = self.states;
-            let outputs = match self.friction.as_ref().map(|f| f.state) {
+            let outputs = match self.friction.as_ref().map(|f| *f.state()) {
                 Some(sliders) => self.outputs_with_limits(&states, &sliders, &self.inputs.clone()),
                 None => {
                     let u = Self::driving_inputs(&self.inputs);
@@ -362,7 +366,7 @@ impl Tire {
     /// How a friction limit shapes the outputs at the current states and inputs.
     fn limit_effect(&mut self) -> LimitEffect {
         let (inputs, rates) = (self.inputs, self.input_rates);
-        let (mut x, sliders) = (self.states, self.friction.as_ref().map(|f| f.state));
+        let (mut x, sliders) = (self.states, self.friction.as_ref().map(|f| *f.state()));
         let damped = self.friction.as_ref().is_some_and(|f| f.damped());
         match (self.limited_system(&inputs, &rates), sliders) {
             (Some(step), Some(mut sliders)) => {
@@ -382,7 +386,10 @@ impl Tire {
     /// outputs' rates along the limited motion, `C dx/dt + D du/dt`.
     fn sliding_output_rates(&mut self) -> OutputVector {
         let (inputs, rates) = (self.inputs, self.input_rates);
-        let (x, sliders) = (self.states, self.friction.as_ref().expect("a limit acts").state);
+        let (x, sliders) = (
+            self.states,
+            *self.friction.as_ref().expect("a limit acts").state(),
+        );
         let step = self.limited_system(&inputs, &rates).expect("a limit acts");
         let (x_rates, _) = step.rates_at(&x, &sliders);
         let du = Self::driving_inputs(&rates);
@@ -394,7 +401,7 @@ impl Tire {
     fn limited_output_rates(&mut self) -> OutputVector {
         let (inputs, rates) = (self.inputs, self.input_rates);
         let mut x = self.states;
-        let mut sliders = self.friction.as_ref().expect("a limit acts").state;
+        let mut sliders = *self.friction.as_ref().expect("a limit acts").state();
         let step = self.limited_system(&inputs, &rates).expect("a limit acts");
         step.prepare(&mut x, &mut sliders);
         let (x_rates, branch_rates) = step.rates_at(&x, &sliders);
@@ -422,7 +429,10 @@ impl Tire {
     /// along a saturated direction).
     fn limited_output_sensitivity(&mut self, input: Input) -> OutputVector {
         let inputs = self.inputs;
-        let (x, sliders) = (self.states, self.friction.as_ref().expect("a limit acts").state);
+        let (x, sliders) = (
+            self.states,
+            *self.friction.as_ref().expect("a limit acts").state(),
+        );
         let value = inputs[input as usize];
         let scale = if input == Input::Fz {
             self.parameters.get(Parameter::NominalLoad)
@@ -567,7 +577,7 @@ impl Tire {
                         h,
                     };
                     if !friction.sticking_step(&linear) {
-                        let mut sliders = friction.state;
+                        let mut sliders = *friction.state();
                         let mut start = self.states;
                         let limits = friction.limits();
                         let sliding_step =
@@ -580,7 +590,7 @@ impl Tire {
                             return Err(StepError::NotFinite);
                         }
                         next_states = start;
-                        friction.state = sliders;
+                        friction.set_state(sliders);
                         sliding = true;
                     }
                 }
@@ -605,7 +615,7 @@ impl Tire {
                 let Some(element) = element else { continue };
                 energy -= 0.5 * element.stiffness * self.states[element.state].powi(2);
                 let u = self.states[element.state];
-                for (branch, offset) in friction.branches.iter().zip(&friction.state.offsets[d]) {
+                for (branch, offset) in friction.branches.iter().zip(&friction.state().offsets[d]) {
                     let b = u + offset;
                     energy += 0.5 * branch.stiffness_fraction * element.stiffness * b * b;
                 }

@@ -255,19 +255,38 @@ pub struct Friction {
     /// The elements the model has, with their directions (the first `present_count`).
     present: [PresentElement; Direction::COUNT],
     present_count: usize,
+    /// By present element: whether its state is driven by no other state at any operating
+    /// point. With held inputs such a state moves monotonically towards its equilibrium,
+    /// and so does any force affine in it: the force's values at the ends of a step bound
+    /// it exactly.
+    undriven: [bool; Direction::COUNT],
     /// Whether any element has a damper.
     damped: bool,
     /// The largest `C / D` of the damped elements (how fast a sliding damper relaxes), 1/s.
     fastest_slide_rate: f64,
     pub elements: ContactElements,
-    pub state: SliderState,
+    state: SliderState,
+    /// Whether `state` has every branch at its element's state ([`SliderState::together`]),
+    /// kept with it: the usual case, checked first on every step.
+    together: bool,
     /// The sticking check made for the last step map ([`Friction::prepare`]).
     check: StickingCheck,
 }
 
 impl Friction {
-    /// `None` for the Unlimited law.
-    pub fn new(law: FrictionLaw, elements: ContactElements) -> Option<Self> {
+    /// `None` for the Unlimited law. `coupling` is the pattern of the model's state matrix
+    /// over its operating points: entry (i, j) zero where state j never drives state i.
+    pub fn new(
+        law: FrictionLaw,
+        elements: ContactElements,
+        coupling: &[[f64; MAX_STATES]; MAX_STATES],
+    ) -> Option<Self> {
+        let present = elements.iter().flatten();
+        let mut undriven = [false; Direction::COUNT];
+        for (undriven, element) in undriven.iter_mut().zip(present) {
+            let k = element.state;
+            *undriven = coupling[k].iter().enumerate().all(|(j, &c)| j == k || c == 0.0);
+        }
         (law != FrictionLaw::Unlimited).then(|| Friction {
             law,
             branches: law.branches(),
@@ -293,6 +312,7 @@ impl Friction {
                 present
             },
             present_count: elements.iter().flatten().count(),
+            undriven,
             damped: elements.iter().flatten().any(|e| e.damping > 0.0),
             fastest_slide_rate: elements
                 .iter()
@@ -309,6 +329,7 @@ impl Friction {
             }),
             elements,
             state: SliderState::AT_REST,
+            together: true,
             check: StickingCheck::default(),
         })
     }
@@ -323,7 +344,17 @@ impl Friction {
     /// Puts every branch at its element's state (at rest, or after states were set from
     /// outside), all sticking.
     pub fn reset(&mut self) {
-        self.state = SliderState::AT_REST;
+        self.set_state(SliderState::AT_REST);
+    }
+
+    /// Each branch's offset and whether its groups slide.
+    pub fn state(&self) -> &SliderState {
+        &self.state
+    }
+
+    pub fn set_state(&mut self, state: SliderState) {
+        self.state = state;
+        self.together = state.together();
     }
 
     /// Whether any element has a damper (DDT): its sliding force is then part of the
@@ -372,8 +403,10 @@ impl Friction {
     /// relax like the states, and every group sticks.
     pub fn lift_off(&mut self, relaxation_times: f64) {
         let decay = (-relaxation_times).exp();
-        self.state.offsets.iter_mut().flatten().for_each(|o| *o *= decay);
-        self.state.sliding = SliderState::AT_REST.sliding;
+        let mut state = self.state;
+        state.offsets.iter_mut().flatten().for_each(|o| *o *= decay);
+        state.sliding = SliderState::AT_REST.sliding;
+        self.set_state(state);
     }
 
     /// Makes the sticking check for a step map (`made_for`: the bits of vx, Fz and h that
@@ -381,7 +414,23 @@ impl Friction {
     /// dynamics, and each element's force and force rate as rows over the states and
     /// inputs. Kept while `made_for` does not change, so a step at a constant operating
     /// point only applies the rows.
+    #[inline]
     pub fn prepare(
+        &mut self,
+        made_for: [u64; 3],
+        system: &StateSpace,
+        h: f64,
+        limits: impl FnOnce() -> Limits,
+    ) {
+        // The usual case, a step at the point of the last one with its rows made: nothing.
+        if self.check.made_for != Some(made_for) || !self.check.rows_ready {
+            self.remake_check(made_for, system, h, limits);
+        }
+    }
+
+    /// [`Friction::prepare`] at a new point, or at the same point for a second step.
+    #[inline(never)]
+    fn remake_check(
         &mut self,
         made_for: [u64; 3],
         system: &StateSpace,
@@ -426,6 +475,8 @@ impl Friction {
             rows.damped = damping > 0.0;
             let (a_k, b_k) = (a.row(k), b.row(k));
             // A spring's force C U has the rate C dU/dt, dU/dt = A_k x + B_k u.
+            rows.force = [0.0; MAX_STATES + DrivingInput::COUNT];
+            rows.force[k] = stiffness;
             for j in 0..N {
                 rows.rate[j] = stiffness * a_k[j];
             }
@@ -439,10 +490,9 @@ impl Friction {
             // d2U/dt2 = (A_k A) x + (A_k B) u + B_k du.
             let (second_states, second_inputs) = (a_k * a, a_k * b);
             for j in 0..N {
-                rows.force[j] = damping * a_k[j];
+                rows.force[j] += damping * a_k[j];
                 rows.rate[j] += damping * second_states[j];
             }
-            rows.force[k] += stiffness;
             for i in 0..DrivingInput::COUNT {
                 rows.force[MAX_STATES + i] = damping * b_k[i];
                 rows.rate[MAX_STATES + i] += damping * second_inputs[i];
@@ -471,7 +521,7 @@ impl Friction {
         if !self.check.short {
             return false;
         }
-        if self.state.together() {
+        if self.together {
             let bounds = match (step.system.states, self.check.rows_ready) {
                 (2, true) => self.together_bounds::<2>(step),
                 (3, true) => self.together_bounds::<3>(step),
@@ -495,7 +545,8 @@ impl Friction {
         };
         match offsets {
             Some(offsets) => {
-                self.state.offsets = offsets;
+                let sliding = self.state.sliding;
+                self.set_state(SliderState { offsets, sliding });
                 true
             }
             None => false,
@@ -518,30 +569,45 @@ impl Friction {
         } = *step;
         let u0 = [inputs[0], inputs[1], inputs[2]];
         let du = [input_rates[0], input_rates[1], input_rates[2]];
+        let held = du == [0.0; 3];
         let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let check = &self.check;
         let mut scaled_bound = [0.0; Direction::COUNT];
-        for rows in &self.check.rows[..self.present_count] {
-            let (f0, f1, mut r0, mut r1) = if rows.damped {
-                let change = rows.rate_input_rates[0] * du[0]
-                    + rows.rate_input_rates[1] * du[1]
-                    + rows.rate_input_rates[2] * du[2];
+        for (rows, &undriven) in check.rows[..self.present_count].iter().zip(&self.undriven) {
+            // A spring's force, or an undriven element's, has one state term.
+            let (f0, f1) = if rows.damped && !undriven {
                 (
                     ElementRows::apply::<N>(&rows.force, start, &u0),
                     ElementRows::apply::<N>(&rows.force, end, &u1),
-                    change,
-                    change,
+                )
+            } else if rows.damped {
+                let k = rows.state;
+                let input_part = |u: &[f64; 3]| {
+                    rows.force[MAX_STATES] * u[0]
+                        + rows.force[MAX_STATES + 1] * u[1]
+                        + rows.force[MAX_STATES + 2] * u[2]
+                };
+                (
+                    rows.force[k] * start[k] + input_part(&u0),
+                    rows.force[k] * end[k] + input_part(&u1),
                 )
             } else {
                 (
                     rows.stiffness * start[rows.state],
                     rows.stiffness * end[rows.state],
-                    0.0,
-                    0.0,
                 )
             };
-            r0 += ElementRows::apply::<N>(&rows.rate, start, &u0);
-            r1 += ElementRows::apply::<N>(&rows.rate, end, &u1);
-            scaled_bound[rows.direction] = force_bound(f0, f1, r0, r1, h) * self.check.scale[rows.direction];
+            let bound = if held && undriven {
+                f0.abs().max(f1.abs())
+            } else {
+                let change = rows.rate_input_rates[0] * du[0]
+                    + rows.rate_input_rates[1] * du[1]
+                    + rows.rate_input_rates[2] * du[2];
+                let r0 = ElementRows::apply::<N>(&rows.rate, start, &u0) + change;
+                let r1 = ElementRows::apply::<N>(&rows.rate, end, &u1) + change;
+                force_bound(f0, f1, r0, r1, h)
+            };
+            scaled_bound[rows.direction] = bound * check.scale[rows.direction];
         }
         scaled_bound
     }
@@ -563,29 +629,52 @@ impl Friction {
         let b = system.b.fixed_view::<N, { DrivingInput::COUNT }>(0, 0);
         let (x0, x1) = (start.fixed_rows::<N>(0), end.fixed_rows::<N>(0));
         let u1 = inputs + input_rates * h;
-        let (rates0, rates1) = (a * x0 + b * inputs, a * x1 + b * u1);
+        let held = *input_rates == DrivingVector::zeros();
+        let elements = &self.present[..self.present_count];
+        let exact = |e: usize| held && self.undriven[e];
+        // Every state rate only where a damper's force rate needs the second derivatives.
+        let second_derivatives = elements
+            .iter()
+            .enumerate()
+            .any(|(e, element)| element.damping > 0.0 && !exact(e));
+        let (rates0, rates1) = if second_derivatives {
+            (a * x0 + b * inputs, a * x1 + b * u1)
+        } else {
+            (nalgebra::SVector::zeros(), nalgebra::SVector::zeros())
+        };
         let mut scaled_bound = [0.0; Direction::COUNT];
-        for element in &self.present[..self.present_count] {
+        for (e, element) in elements.iter().enumerate() {
             let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
-            let (f0, f1, r0, r1) = if damping > 0.0 {
-                // The damper's force rate needs the states' second derivatives.
-                let change = b.row(k).dot(&input_rates.transpose());
-                (
+            let (a_k, b_k) = (a.row(k), b.row(k));
+            let bound = if exact(e) {
+                let force = |x: f64, x_rate: f64| stiffness * x + damping * x_rate;
+                let rate = |x: f64| a_k[k] * x + b_k.dot(&inputs.transpose());
+                let (f0, f1) = if damping > 0.0 {
+                    (force(x0[k], rate(x0[k])), force(x1[k], rate(x1[k])))
+                } else {
+                    (stiffness * x0[k], stiffness * x1[k])
+                };
+                f0.abs().max(f1.abs())
+            } else if damping > 0.0 {
+                let change = b_k.dot(&input_rates.transpose());
+                force_bound(
                     stiffness * x0[k] + damping * rates0[k],
                     stiffness * x1[k] + damping * rates1[k],
-                    stiffness * rates0[k] + damping * (a.row(k).dot(&rates0.transpose()) + change),
-                    stiffness * rates1[k] + damping * (a.row(k).dot(&rates1.transpose()) + change),
+                    stiffness * rates0[k] + damping * (a_k.dot(&rates0.transpose()) + change),
+                    stiffness * rates1[k] + damping * (a_k.dot(&rates1.transpose()) + change),
+                    h,
                 )
             } else {
-                (
+                force_bound(
                     stiffness * x0[k],
                     stiffness * x1[k],
-                    stiffness * rates0[k],
-                    stiffness * rates1[k],
+                    stiffness * (a_k.dot(&x0.transpose()) + b_k.dot(&inputs.transpose())),
+                    stiffness * (a_k.dot(&x1.transpose()) + b_k.dot(&u1.transpose())),
+                    h,
                 )
             };
             let d = element.direction;
-            scaled_bound[d] = force_bound(f0, f1, r0, r1, h) * self.check.scale[d];
+            scaled_bound[d] = bound * self.check.scale[d];
         }
         scaled_bound
     }
@@ -766,7 +855,8 @@ mod tests {
                 let mut tire = Tire::new(parameters.clone()).unwrap();
                 let system = tire.system_at(7.0, load);
                 let elements = model.equations().contact_elements(&parameters);
-                let mut friction = Friction::new(law, elements).unwrap();
+                let coupling = system.a.map(f64::abs).transpose().data.0;
+                let mut friction = Friction::new(law, elements, &coupling).unwrap();
                 let h: f64 = 1e-3;
                 let key = [7.0_f64.to_bits(), load.to_bits(), h.to_bits()];
                 friction.prepare(key, &system, h, || Limits::at(&parameters, load));

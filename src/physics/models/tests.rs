@@ -359,14 +359,16 @@ proptest! {
 
     /// Plausible tires (every parameter within a factor 3 of its default) at plausible
     /// loads (from a quarter to three times Fz0, or lifted off) never need to refuse a
-    /// step with sliding, whatever the inputs and step size. (At a few percent of Fz0 the
-    /// elastic travel to the limit shrinks to micrometres, and combined sliding aligns its
-    /// force within microseconds: long steps there may be refused, see the README.)
+    /// step with sliding of up to 50 ms, whatever the inputs. (Combined sliding aligns its
+    /// force with the sliding direction at a rate of about C |v| / Fmax: with a stiff
+    /// tread, a low friction coefficient and a fast slide that is tens of microseconds,
+    /// and a step of a second would need more substeps than the integration allows; it
+    /// is refused, see the README.)
     #[test]
     fn steps_with_sliding_converge_for_plausible_tires(
         p in scaled_parameters(0.33..3.0),
         steps in prop::collection::vec(
-            (-40.0f64..40.0, -5.0f64..5.0, -2.0f64..2.0, -5.0f64..5.0, -0.2f64..3.0, 1e-4f64..2.0), 1..12),
+            (-40.0f64..40.0, -5.0f64..5.0, -2.0f64..2.0, -5.0f64..5.0, -0.2f64..3.0, 1e-4f64..0.05), 1..12),
     ) {
         let nominal = p.get(Parameter::NominalLoad);
         let mut t = Tire::new(p).unwrap();
