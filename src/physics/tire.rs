@@ -566,7 +566,7 @@ impl Tire {
                 ContactMode::LiftedOff => friction.lift_off(h / LIFT_OFF_RELAXATION_TIME),
                 ContactMode::Rolling => {
                     let parameters = &self.parameters;
-                    friction.prepare(made_for, state_space, h, || Limits::at(parameters, load));
+                    friction.prepare(made_for, state_space, || Limits::at(parameters, load));
                     let linear = LinearStep {
                         system: state_space,
                         transition: &map.transition,

@@ -169,8 +169,9 @@ struct StickingCheck {
     /// The bits of vx, Fz and h it was made for (`None`: not made yet).
     made_for: Option<[u64; 3]>,
     limits: Limits,
-    /// Whether the step is short against the dynamics, so that the force bound holds.
-    short: bool,
+    /// Whether the step is short against the dynamics, so that the force bound holds
+    /// (`None`: not asked yet; a step that needs no force bound never asks).
+    short: Option<bool>,
     /// Whether `rows` are made: only from the second step at the same point, since a
     /// point that changes every step is cheaper to check from the system directly.
     rows_ready: bool,
@@ -260,6 +261,8 @@ pub struct Friction {
     /// and so does any force affine in it: the force's values at the ends of a step bound
     /// it exactly.
     undriven: [bool; Direction::COUNT],
+    /// Whether every present element is undriven.
+    all_undriven: bool,
     /// Whether any element has a damper.
     damped: bool,
     /// The largest `C / D` of the damped elements (how fast a sliding damper relaxes), 1/s.
@@ -312,6 +315,7 @@ impl Friction {
                 present
             },
             present_count: elements.iter().flatten().count(),
+            all_undriven: undriven[..elements.iter().flatten().count()].iter().all(|&u| u),
             undriven,
             damped: elements.iter().flatten().any(|e| e.damping > 0.0),
             fastest_slide_rate: elements
@@ -378,6 +382,18 @@ impl Friction {
         fastest.max(self.fastest_slide_rate)
     }
 
+    /// [`Friction::short_against_dynamics`] for this step, asked once per step map.
+    fn short(&mut self, step: &LinearStep) -> bool {
+        match self.check.short {
+            Some(short) => short,
+            None => {
+                let short = self.short_against_dynamics(step.system, step.h);
+                self.check.short = Some(short);
+                short
+            }
+        }
+    }
+
     /// Whether `h * fastest_rate <= MAX_STICKING_STEP`, without square roots.
     fn short_against_dynamics(&self, system: &StateSpace, h: f64) -> bool {
         let limit = MAX_STICKING_STEP / h;
@@ -410,33 +426,22 @@ impl Friction {
     }
 
     /// Makes the sticking check for a step map (`made_for`: the bits of vx, Fz and h that
-    /// decide it): the limits at the step's load, whether the step is short against the
-    /// dynamics, and each element's force and force rate as rows over the states and
-    /// inputs. Kept while `made_for` does not change, so a step at a constant operating
-    /// point only applies the rows.
+    /// decide it): the limits at the step's load and, from the second step at the same
+    /// point, each element's force and force rate as rows over the states and inputs.
+    /// (Whether the step is short against the dynamics is asked when a force bound needs
+    /// it.) Kept while `made_for` does not change, so a step at a constant operating point
+    /// only applies the rows.
     #[inline]
-    pub fn prepare(
-        &mut self,
-        made_for: [u64; 3],
-        system: &StateSpace,
-        h: f64,
-        limits: impl FnOnce() -> Limits,
-    ) {
+    pub fn prepare(&mut self, made_for: [u64; 3], system: &StateSpace, limits: impl FnOnce() -> Limits) {
         // The usual case, a step at the point of the last one with its rows made: nothing.
         if self.check.made_for != Some(made_for) || !self.check.rows_ready {
-            self.remake_check(made_for, system, h, limits);
+            self.remake_check(made_for, system, limits);
         }
     }
 
     /// [`Friction::prepare`] at a new point, or at the same point for a second step.
     #[inline(never)]
-    fn remake_check(
-        &mut self,
-        made_for: [u64; 3],
-        system: &StateSpace,
-        h: f64,
-        limits: impl FnOnce() -> Limits,
-    ) {
+    fn remake_check(&mut self, made_for: [u64; 3], system: &StateSpace, limits: impl FnOnce() -> Limits) {
         if self.check.made_for == Some(made_for) {
             // A second step at the same point: the rows pay off from now on.
             if !self.check.rows_ready {
@@ -451,7 +456,7 @@ impl Friction {
             return;
         }
         let limits = limits();
-        self.check.short = self.short_against_dynamics(system, h);
+        self.check.short = None;
         self.check.scale = limits.0.map(|limit| self.inverse_first_breakpoint / limit);
         self.check.limits = limits;
         self.check.made_for = Some(made_for);
@@ -518,19 +523,22 @@ impl Friction {
     pub fn sticking_step(&mut self, step: &LinearStep) -> bool {
         // The bound of a force over the step from its ends is trusted where the step is
         // short against the dynamics; a longer step goes to the event-locating path.
-        if !self.check.short {
+        // (Undriven elements under held inputs are bounded exactly, at any step size.)
+        let held = *step.input_rates == DrivingVector::zeros();
+        let exact = self.together && self.all_undriven && held;
+        if !exact && !self.short(step) {
             return false;
         }
         if self.together {
             let bounds = match (step.system.states, self.check.rows_ready) {
-                (2, true) => self.together_bounds::<2>(step),
-                (3, true) => self.together_bounds::<3>(step),
-                (4, true) => self.together_bounds::<4>(step),
-                (_, true) => self.together_bounds::<MAX_STATES>(step),
-                (2, false) => self.together_bounds_direct::<2>(step),
-                (3, false) => self.together_bounds_direct::<3>(step),
-                (4, false) => self.together_bounds_direct::<4>(step),
-                (_, false) => self.together_bounds_direct::<MAX_STATES>(step),
+                (2, true) => self.together_bounds::<2>(step, held),
+                (3, true) => self.together_bounds::<3>(step, held),
+                (4, true) => self.together_bounds::<4>(step, held),
+                (_, true) => self.together_bounds::<MAX_STATES>(step, held),
+                (2, false) => self.together_bounds_direct::<2>(step, held),
+                (3, false) => self.together_bounds_direct::<3>(step, held),
+                (4, false) => self.together_bounds_direct::<4>(step, held),
+                (_, false) => self.together_bounds_direct::<MAX_STATES>(step, held),
             };
             return self.within_limits(&bounds);
         }
@@ -558,7 +566,7 @@ impl Friction {
     /// its first branch's limit (each branch carries `w_i` of the element force, so the
     /// first breakpoint decides).
     #[inline(never)]
-    fn together_bounds<const N: usize>(&self, step: &LinearStep) -> [f64; Direction::COUNT] {
+    fn together_bounds<const N: usize>(&self, step: &LinearStep, held: bool) -> [f64; Direction::COUNT] {
         let LinearStep {
             start,
             end,
@@ -569,7 +577,6 @@ impl Friction {
         } = *step;
         let u0 = [inputs[0], inputs[1], inputs[2]];
         let du = [input_rates[0], input_rates[1], input_rates[2]];
-        let held = du == [0.0; 3];
         let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
         let check = &self.check;
         let mut scaled_bound = [0.0; Direction::COUNT];
@@ -615,7 +622,11 @@ impl Friction {
     /// [`Friction::together_bounds`] from the system itself, without the rows: the state
     /// rates at both ends, then each element's force and force rate.
     #[inline(never)]
-    fn together_bounds_direct<const N: usize>(&self, step: &LinearStep) -> [f64; Direction::COUNT] {
+    fn together_bounds_direct<const N: usize>(
+        &self,
+        step: &LinearStep,
+        held: bool,
+    ) -> [f64; Direction::COUNT] {
         let LinearStep {
             system,
             start,
@@ -629,7 +640,6 @@ impl Friction {
         let b = system.b.fixed_view::<N, { DrivingInput::COUNT }>(0, 0);
         let (x0, x1) = (start.fixed_rows::<N>(0), end.fixed_rows::<N>(0));
         let u1 = inputs + input_rates * h;
-        let held = *input_rates == DrivingVector::zeros();
         let elements = &self.present[..self.present_count];
         let exact = |e: usize| held && self.undriven[e];
         // Every state rate only where a damper's force rate needs the second derivatives.
@@ -859,9 +869,9 @@ mod tests {
                 let mut friction = Friction::new(law, elements, &coupling).unwrap();
                 let h: f64 = 1e-3;
                 let key = [7.0_f64.to_bits(), load.to_bits(), h.to_bits()];
-                friction.prepare(key, &system, h, || Limits::at(&parameters, load));
+                friction.prepare(key, &system, || Limits::at(&parameters, load));
                 assert!(!friction.check.rows_ready, "rows only from the second step");
-                friction.prepare(key, &system, h, || unreachable!("limits kept"));
+                friction.prepare(key, &system, || unreachable!("limits kept"));
                 assert!(friction.check.rows_ready);
                 let n = system.states;
                 let state = |phase: f64| {
@@ -884,8 +894,9 @@ mod tests {
                         input_rates: &input_rates,
                         h,
                     };
-                    let rows = friction.together_bounds::<MAX_STATES>(&step);
-                    let direct = friction.together_bounds_direct::<MAX_STATES>(&step);
+                    let held = input_rates == DrivingVector::zeros();
+                    let rows = friction.together_bounds::<MAX_STATES>(&step, held);
+                    let direct = friction.together_bounds_direct::<MAX_STATES>(&step, held);
                     for d in 0..Direction::COUNT {
                         assert!(
                             (rows[d] - direct[d]).abs() <= 1e-12 * rows[d].abs().max(1e-300),
