@@ -45,7 +45,7 @@ unsafe fn array<'a, T>(ptr: *const T, n: usize, name: &str) -> CallResult<&'a [T
 
 #[cold]
 #[inline(never)]
-fn bad_array(null: bool, n: usize, name: &str) -> Rejection {
+fn bad_array(null: bool, n: usize, name: &str) -> Box<Rejection> {
     if null {
         Rejection::error(format!("{name} is NULL but {n} elements were given"))
     } else {

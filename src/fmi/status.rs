@@ -22,20 +22,21 @@ pub struct Rejection {
 }
 
 impl Rejection {
-    pub fn error(message: impl Into<String>) -> Self {
-        Self {
+    pub fn error(message: impl Into<String>) -> Box<Self> {
+        Box::new(Self {
             status: Status::Error,
             message: message.into(),
-        }
+        })
     }
 
-    pub fn discard(message: impl Into<String>) -> Self {
-        Self {
+    pub fn discard(message: impl Into<String>) -> Box<Self> {
+        Box::new(Self {
             status: Status::Discard,
             message: message.into(),
-        }
+        })
     }
 }
 
-/// The result of an FMI call made on an instance.
-pub type CallResult<T = ()> = Result<T, Rejection>;
+/// The result of an FMI call made on an instance. The rejection is boxed: a call that
+/// succeeds returns one machine word.
+pub type CallResult<T = ()> = Result<T, Box<Rejection>>;

@@ -25,6 +25,9 @@ pub struct StateSpace {
     pub b: InputMatrix,
     pub c: OutputMatrix,
     pub d: FeedthroughMatrix,
+    /// Whether column k of `d` may be nonzero (at some operating point): the outputs skip
+    /// the others. All true unless the pattern is known ([`StateSpace::set_feedthrough_pattern`]).
+    pub feedthrough: [bool; DrivingInput::COUNT],
 }
 
 impl StateSpace {
@@ -37,13 +40,26 @@ impl StateSpace {
             b: InputMatrix::zeros(),
             c: OutputMatrix::zeros(),
             d: FeedthroughMatrix::zeros(),
+            feedthrough: [true; DrivingInput::COUNT],
         }
+    }
+
+    /// Records which driving inputs feed the outputs directly: `nonzero[k]` false only if
+    /// column k of `d` is zero at every operating point.
+    pub fn set_feedthrough_pattern(&mut self, nonzero: [bool; DrivingInput::COUNT]) {
+        self.feedthrough = nonzero;
     }
 
     /// `y = C x + D u`.
     pub fn outputs(&self, x: &StateVector, u: &DrivingVector) -> OutputVector {
-        // Column by column over the states in use (a small model leaves most columns zero).
-        let mut y = self.d * u;
+        // Column by column over the inputs that feed through and the states in use (a
+        // small model leaves most columns zero).
+        let mut y = OutputVector::zeros();
+        for (k, &uk) in u.iter().enumerate() {
+            if self.feedthrough[k] {
+                y.axpy(uk, &self.d.column(k), 1.0);
+            }
+        }
         for (j, &xj) in x.iter().enumerate().take(self.states) {
             y.axpy(xj, &self.c.column(j), 1.0);
         }

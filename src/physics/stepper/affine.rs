@@ -2,7 +2,7 @@
 //! costs a few multiply-adds instead of writing the equations again.
 
 use crate::physics::load::InverseLengthFactors;
-use crate::physics::signals::Output;
+use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{MAX_STATES, StateSpace};
 
 /// Where the tire operates: the quantities its system matrices depend on (SPEC 4, 4b).
@@ -195,6 +195,7 @@ impl AffineSystem {
             }
         }
         affine.index_by_matrix();
+        affine.mark_feedthrough();
         affine
     }
 
@@ -224,6 +225,7 @@ impl AffineSystem {
         }
         lifted.varying_count = kept;
         lifted.index_by_matrix();
+        lifted.mark_feedthrough();
         lifted
     }
 
@@ -250,6 +252,20 @@ impl AffineSystem {
     /// The system at rest; evaluate into a copy of it.
     pub fn at_rest(&self) -> &StateSpace {
         &self.at_rest
+    }
+
+    /// Marks in `at_rest` the feedthrough columns that are zero at every operating point
+    /// (zero at rest and without a varying term), so that the outputs skip them.
+    fn mark_feedthrough(&mut self) {
+        let rows = self.at_rest.d.nrows();
+        let mut nonzero = [false; DrivingInput::COUNT];
+        for (k, column) in nonzero.iter_mut().enumerate() {
+            *column = self.at_rest.d.column(k).iter().any(|&v| v != 0.0);
+        }
+        for term in self.varying().iter().filter(|t| t.matrix == Matrix::D) {
+            nonzero[term.index as usize / rows] = true;
+        }
+        self.at_rest.set_feedthrough_pattern(nonzero);
     }
 
     fn varying(&self) -> &[VaryingTerm] {
