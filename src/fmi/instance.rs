@@ -248,6 +248,13 @@ impl Instance {
         if self.get_outputs_fast(value_references, values) {
             return Ok(());
         }
+        self.get_reals(value_references, values)
+    }
+
+    /// [`Instance::get_real`] value by value, out of line: any variable, and the reason
+    /// when one cannot be read.
+    #[inline(never)]
+    fn get_reals(&mut self, value_references: &[u32], values: &mut [f64]) -> CallResult {
         self.require(Call::GetValues)?;
         same_length("values", value_references.len(), values.len())?;
         for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
@@ -346,7 +353,9 @@ impl Instance {
     }
 
     /// Sets values all together: if any one is refused, none is set. Checks everything
-    /// first, then applies (no buffer: a set must not allocate).
+    /// first, then applies (no buffer: a set must not allocate). Out of line: the inputs
+    /// of a step take [`Instance::set_inputs_fast`].
+    #[inline(never)]
     fn set_values<T: Copy + Into<f64>>(
         &mut self,
         expected: ValueType,
