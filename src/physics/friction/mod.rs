@@ -263,6 +263,10 @@ pub struct Friction {
     undriven: [bool; Direction::COUNT],
     /// Whether every present element is undriven.
     all_undriven: bool,
+    /// The states whose rates the direct sticking check needs, with inputs held and
+    /// ramped: each element bounded through its rates needs its own state's, and a
+    /// damper also those of the states that drive it.
+    rates_needed: [[bool; MAX_STATES]; 2],
     /// Whether any element has a damper.
     damped: bool,
     /// The largest `C / D` of the damped elements (how fast a sliding damper relaxes), 1/s.
@@ -284,11 +288,22 @@ impl Friction {
         elements: ContactElements,
         coupling: &[[f64; MAX_STATES]; MAX_STATES],
     ) -> Option<Self> {
-        let present = elements.iter().flatten();
         let mut undriven = [false; Direction::COUNT];
-        for (undriven, element) in undriven.iter_mut().zip(present) {
+        let mut rates_needed = [[false; MAX_STATES]; 2];
+        for (undriven, element) in undriven.iter_mut().zip(elements.iter().flatten()) {
             let k = element.state;
             *undriven = coupling[k].iter().enumerate().all(|(j, &c)| j == k || c == 0.0);
+            // Held inputs bound an undriven element without rates.
+            let cases: &[usize] = if *undriven { &[1] } else { &[0, 1] };
+            for &case in cases {
+                let needed = &mut rates_needed[case];
+                needed[k] = true;
+                if element.damping > 0.0 {
+                    for (j, &c) in coupling[k].iter().enumerate() {
+                        needed[j] |= c != 0.0;
+                    }
+                }
+            }
         }
         (law != FrictionLaw::Unlimited).then(|| Friction {
             law,
@@ -317,6 +332,7 @@ impl Friction {
             present_count: elements.iter().flatten().count(),
             all_undriven: undriven[..elements.iter().flatten().count()].iter().all(|&u| u),
             undriven,
+            rates_needed,
             damped: elements.iter().flatten().any(|e| e.damping > 0.0),
             fastest_slide_rate: elements
                 .iter()
@@ -636,50 +652,59 @@ impl Friction {
             h,
             ..
         } = *step;
-        let a = system.a.fixed_view::<N, N>(0, 0);
-        let b = system.b.fixed_view::<N, { DrivingInput::COUNT }>(0, 0);
-        let (x0, x1) = (start.fixed_rows::<N>(0), end.fixed_rows::<N>(0));
-        let u1 = inputs + input_rates * h;
-        let elements = &self.present[..self.present_count];
-        let exact = |e: usize| held && self.undriven[e];
-        // Every state rate only where a damper's force rate needs the second derivatives.
-        let second_derivatives = elements
-            .iter()
-            .enumerate()
-            .any(|(e, element)| element.damping > 0.0 && !exact(e));
-        let (rates0, rates1) = if second_derivatives {
-            (a * x0 + b * inputs, a * x1 + b * u1)
-        } else {
-            (nalgebra::SVector::zeros(), nalgebra::SVector::zeros())
+        // Column-major storage: entry (i, j) at i + MAX_STATES j.
+        let (a, b) = (system.a.as_slice(), system.b.as_slice());
+        let (x0, x1) = (&start.as_slice()[..N], &end.as_slice()[..N]);
+        let u0 = [inputs[0], inputs[1], inputs[2]];
+        let du = [input_rates[0], input_rates[1], input_rates[2]];
+        let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let input_term =
+            |i: usize, u: &[f64; 3]| b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
+        let row = |i: usize, x: &[f64], input_part: f64| {
+            let mut sum = input_part;
+            for j in 0..N {
+                sum += a[i + MAX_STATES * j] * x[j];
+            }
+            sum
         };
+        // dx/dt at both ends, for the states the bounds below read.
+        let needed = &self.rates_needed[usize::from(!held)];
+        let (mut rates0, mut rates1) = ([0.0; N], [0.0; N]);
+        for i in 0..N {
+            if needed[i] {
+                rates0[i] = row(i, x0, input_term(i, &u0));
+                rates1[i] = row(i, x1, input_term(i, &u1));
+            }
+        }
         let mut scaled_bound = [0.0; Direction::COUNT];
-        for (e, element) in elements.iter().enumerate() {
+        for (e, element) in self.present[..self.present_count].iter().enumerate() {
             let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
-            let (a_k, b_k) = (a.row(k), b.row(k));
-            let bound = if exact(e) {
-                let force = |x: f64, x_rate: f64| stiffness * x + damping * x_rate;
-                let rate = |x: f64| a_k[k] * x + b_k.dot(&inputs.transpose());
+            let bound = if held && self.undriven[e] {
+                // Monotone between the ends; a damper's rate has only its own state's term.
                 let (f0, f1) = if damping > 0.0 {
-                    (force(x0[k], rate(x0[k])), force(x1[k], rate(x1[k])))
+                    let (diagonal, input_part) = (a[k + MAX_STATES * k], input_term(k, &u0));
+                    let force = |x: f64| stiffness * x + damping * (diagonal * x + input_part);
+                    (force(x0[k]), force(x1[k]))
                 } else {
                     (stiffness * x0[k], stiffness * x1[k])
                 };
                 f0.abs().max(f1.abs())
             } else if damping > 0.0 {
-                let change = b_k.dot(&input_rates.transpose());
+                // The damper's force rate needs the states' second derivatives.
+                let change = input_term(k, &du);
                 force_bound(
                     stiffness * x0[k] + damping * rates0[k],
                     stiffness * x1[k] + damping * rates1[k],
-                    stiffness * rates0[k] + damping * (a_k.dot(&rates0.transpose()) + change),
-                    stiffness * rates1[k] + damping * (a_k.dot(&rates1.transpose()) + change),
+                    stiffness * rates0[k] + damping * row(k, &rates0, change),
+                    stiffness * rates1[k] + damping * row(k, &rates1, change),
                     h,
                 )
             } else {
                 force_bound(
                     stiffness * x0[k],
                     stiffness * x1[k],
-                    stiffness * (a_k.dot(&x0.transpose()) + b_k.dot(&inputs.transpose())),
-                    stiffness * (a_k.dot(&x1.transpose()) + b_k.dot(&u1.transpose())),
+                    stiffness * rates0[k],
+                    stiffness * rates1[k],
                     h,
                 )
             };
