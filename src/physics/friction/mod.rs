@@ -198,18 +198,6 @@ struct ElementRows {
     rate_input_rates: [f64; DrivingInput::COUNT],
 }
 
-impl ElementRows {
-    /// `row . [x, u]` over the first `N` states.
-    #[inline(always)]
-    fn apply<const N: usize>(row: &Row, x: &StateVector, u: &[f64; 3]) -> f64 {
-        let mut sum = row[MAX_STATES] * u[0] + row[MAX_STATES + 1] * u[1] + row[MAX_STATES + 2] * u[2];
-        for j in 0..N {
-            sum += row[j] * x[j];
-        }
-        sum
-    }
-}
-
 /// Each branch's deflection and whether its groups slide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SliderState {
@@ -594,40 +582,48 @@ impl Friction {
         let u0 = [inputs[0], inputs[1], inputs[2]];
         let du = [input_rates[0], input_rates[1], input_rates[2]];
         let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let states = |row: &Row, x: &StateVector| {
+            let mut sum = 0.0;
+            for j in 0..N {
+                sum += row[j] * x[j];
+            }
+            sum
+        };
+        let inputs = |row: &Row, u: &[f64; 3]| {
+            row[MAX_STATES] * u[0] + row[MAX_STATES + 1] * u[1] + row[MAX_STATES + 2] * u[2]
+        };
+        // A row's input part at both ends: the same while the inputs are held.
+        let input_ends = |row: &Row| {
+            let first = inputs(row, &u0);
+            (first, if held { first } else { inputs(row, &u1) })
+        };
         let check = &self.check;
         let mut scaled_bound = [0.0; Direction::COUNT];
         for (rows, &undriven) in check.rows[..self.present_count].iter().zip(&self.undriven) {
+            let k = rows.state;
             // A spring's force, or an undriven element's, has one state term.
-            let (f0, f1) = if rows.damped && !undriven {
-                (
-                    ElementRows::apply::<N>(&rows.force, start, &u0),
-                    ElementRows::apply::<N>(&rows.force, end, &u1),
-                )
-            } else if rows.damped {
-                let k = rows.state;
-                let input_part = |u: &[f64; 3]| {
-                    rows.force[MAX_STATES] * u[0]
-                        + rows.force[MAX_STATES + 1] * u[1]
-                        + rows.force[MAX_STATES + 2] * u[2]
-                };
-                (
-                    rows.force[k] * start[k] + input_part(&u0),
-                    rows.force[k] * end[k] + input_part(&u1),
-                )
+            let (f0, f1) = if rows.damped {
+                let (p0, p1) = input_ends(&rows.force);
+                if undriven {
+                    (rows.force[k] * start[k] + p0, rows.force[k] * end[k] + p1)
+                } else {
+                    (states(&rows.force, start) + p0, states(&rows.force, end) + p1)
+                }
             } else {
-                (
-                    rows.stiffness * start[rows.state],
-                    rows.stiffness * end[rows.state],
-                )
+                (rows.stiffness * start[k], rows.stiffness * end[k])
             };
             let bound = if held && undriven {
                 f0.abs().max(f1.abs())
             } else {
-                let change = rows.rate_input_rates[0] * du[0]
-                    + rows.rate_input_rates[1] * du[1]
-                    + rows.rate_input_rates[2] * du[2];
-                let r0 = ElementRows::apply::<N>(&rows.rate, start, &u0) + change;
-                let r1 = ElementRows::apply::<N>(&rows.rate, end, &u1) + change;
+                let change = if held {
+                    0.0
+                } else {
+                    let rates = &rows.rate_input_rates;
+                    rates[0] * du[0] + rates[1] * du[1] + rates[2] * du[2]
+                };
+                let (p0, p1) = input_ends(&rows.rate);
+                let r0 = states(&rows.rate, start) + p0 + change;
+                let r1 = states(&rows.rate, end) + p1 + change;
                 force_bound(f0, f1, r0, r1, h)
             };
             scaled_bound[rows.direction] = bound * check.scale[rows.direction];
