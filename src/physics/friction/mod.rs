@@ -524,6 +524,7 @@ impl Friction {
     ///
     /// While the branches move together (no offsets, the usual case) this is four dot
     /// products per element; work per branch only while they differ (after sliding).
+    #[inline]
     pub fn sticking_step(&mut self, step: &LinearStep) -> bool {
         // The bound of a force over the step from its ends is trusted where the step is
         // short against the dynamics; a longer step goes to the event-locating path.
