@@ -170,30 +170,26 @@ const fn signal_table(outputs: bool) -> [u8; VARIABLE_BY_VALUE_REFERENCE.len()] 
 }
 
 /// The value reference of each output, in [`Output`] order.
-pub const OUTPUT_VALUE_REFERENCES: [u32; Output::COUNT] = {
-    let mut references = [0; Output::COUNT];
-    let mut i = 0;
-    while i < VARIABLES.len() {
-        if let Role::Output(output) = VARIABLES[i].variable.role() {
-            references[output as usize] = VARIABLES[i].value_reference;
-        }
-        i += 1;
-    }
-    references
-};
+pub const OUTPUT_VALUE_REFERENCES: [u32; Output::COUNT] = signal_references(true);
 
 /// The value reference of each input, in [`Input`] order.
-pub const INPUT_VALUE_REFERENCES: [u32; Input::COUNT] = {
-    let mut references = [0; Input::COUNT];
+pub const INPUT_VALUE_REFERENCES: [u32; Input::COUNT] = signal_references(false);
+
+/// The value references of the outputs (or inputs), indexed by `Output as usize` (or
+/// `Input as usize`).
+const fn signal_references<const N: usize>(outputs: bool) -> [u32; N] {
+    let mut references = [0; N];
     let mut i = 0;
     while i < VARIABLES.len() {
-        if let Role::Input(input) = VARIABLES[i].variable.role() {
-            references[input as usize] = VARIABLES[i].value_reference;
+        match (outputs, VARIABLES[i].variable.role()) {
+            (true, Role::Output(output)) => references[output as usize] = VARIABLES[i].value_reference,
+            (false, Role::Input(input)) => references[input as usize] = VARIABLES[i].value_reference,
+            _ => {}
         }
         i += 1;
     }
     references
-};
+}
 
 /// `[min, max]` of each input (`Input as usize`); the largest finite values where the
 /// model description gives no bound, so that a comparison also refuses infinities.

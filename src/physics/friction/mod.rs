@@ -572,17 +572,8 @@ impl Friction {
     /// first breakpoint decides).
     #[inline(never)]
     fn together_bounds<const N: usize>(&self, step: &LinearStep, held: bool) -> [f64; Direction::COUNT] {
-        let LinearStep {
-            start,
-            end,
-            inputs,
-            input_rates,
-            h,
-            ..
-        } = *step;
-        let u0 = [inputs[0], inputs[1], inputs[2]];
-        let du = [input_rates[0], input_rates[1], input_rates[2]];
-        let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let LinearStep { start, end, h, .. } = *step;
+        let (u0, du, u1) = step.driving_inputs();
         let states = |row: &Row, x: &StateVector| {
             let mut sum = 0.0;
             for j in 0..N {
@@ -644,17 +635,13 @@ impl Friction {
             system,
             start,
             end,
-            inputs,
-            input_rates,
             h,
             ..
         } = *step;
         // Column-major storage: entry (i, j) at i + MAX_STATES j.
         let (a, b) = (system.a.as_slice(), system.b.as_slice());
         let (x0, x1) = (&start.as_slice()[..N], &end.as_slice()[..N]);
-        let u0 = [inputs[0], inputs[1], inputs[2]];
-        let du = [input_rates[0], input_rates[1], input_rates[2]];
-        let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let (u0, du, u1) = step.driving_inputs();
         let input_term =
             |i: usize, u: &[f64; 3]| b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
         let row = |i: usize, x: &[f64], input_part: f64| {
@@ -739,13 +726,10 @@ impl Friction {
             transition,
             start,
             end,
-            inputs,
-            input_rates,
             h,
+            ..
         } = *step;
-        let u0 = [inputs[0], inputs[1], inputs[2]];
-        let du = [input_rates[0], input_rates[1], input_rates[2]];
-        let u1 = [u0[0] + h * du[0], u0[1] + h * du[1], u0[2] + h * du[2]];
+        let (u0, du, u1) = step.driving_inputs();
         // Row k of A x + B u over the N states.
         let rate = |x: &[f64; MAX_STATES], u: &[f64; 3], k: usize| {
             let mut rate = system.b[(k, 0)] * u[0] + system.b[(k, 1)] * u[1] + system.b[(k, 2)] * u[2];
@@ -851,6 +835,19 @@ pub struct LinearStep<'a> {
     pub inputs: &'a DrivingVector,
     pub input_rates: &'a DrivingVector,
     pub h: f64,
+}
+
+impl LinearStep<'_> {
+    /// The driving inputs at the start, their rates, and the inputs at the end.
+    fn driving_inputs(&self) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        let (u0, du) = (self.inputs, self.input_rates);
+        let u1 = [
+            u0[0] + self.h * du[0],
+            u0[1] + self.h * du[1],
+            u0[2] + self.h * du[2],
+        ];
+        ([u0[0], u0[1], u0[2]], [du[0], du[1], du[2]], u1)
+    }
 }
 
 /// Whether state `k` neither drives nor is driven by the other states: then the step
