@@ -120,6 +120,9 @@ def test_rejected_multi_value_set_changes_nothing(slaves, log):
     s, twin, t = stepping_pair(slaves, log, "SecondOrder")
     for vrs, vals, names, bad in [
         ([2, 4, 5], [0.5, math.nan, 1000.0], ["vsx"], math.nan),
+        # all five inputs in declared order (the path a co-simulation step takes)
+        ([1, 2, 3, 4, 5], [3.0, 0.1, math.inf, 0.0, 900.0], ["steerRate"], math.inf),
+        ([1, 2, 3, 4, 5], [3.0, 0.1, 0.0, 0.0, math.nan], ["Fz"], math.nan),
         ([1, 2, 999], [3.0, -0.4, 1.0], ["999"], None),
         ([3, 103], [0.1, 2.0], ["sigmaY"], 2.0),          # fixed parameter after init
     ]:
