@@ -16,10 +16,14 @@
 //!
 //! How a step is computed ([`crate::physics::Tire::step`]):
 //! 1. The limits at the step's load; a spring force outside them is put on them at once.
-//! 2. If every group sticks and the step is short against the dynamics, the exact linear
-//!    step of the model (the stepper) moves `U`, and `b_i - U` decays with the element's
-//!    relaxation rate ([`Friction::sticking_step`]). The step is kept if no branch can
-//!    have reached its limit within it ([`force_bound`]).
+//!    They are kept with the step map ([`Friction::prepare`]), and from the second step
+//!    at the same operating point so are each element's force and force-rate rows.
+//! 2. If every group sticks, the exact linear step of the model (the stepper) moves `U`,
+//!    and `b_i - U` decays with the element's relaxation rate ([`Friction::sticking_step`]).
+//!    The step is kept if no branch can have reached its limit within it: an element
+//!    whose state nothing else drives, under held inputs, is bounded exactly by its force
+//!    at the two ends (at any step size); the others by [`force_bound`], trusted only for
+//!    steps short against the dynamics.
 //! 3. Otherwise [`sliding`] integrates the branches and the model together, piece by
 //!    piece between stick/slide events located in time, to 1e-12.
 

@@ -17,7 +17,8 @@
 //!    the speed anywhere. The blocks together give the [`StepMap`]
 //!    `x(h) = transition x(0) + hold u0 + ramp du`, exact to rounding for any h.
 //! 4. **Reuse.** The step map is kept while the operating point, contact mode and step
-//!    size are unchanged, so a step at constant speed is three small matrix products.
+//!    size are unchanged, with the system at its point, so a step at constant speed is
+//!    the map applied to the states in use and the outputs of the system in hand.
 //!
 //! The state at any time within a step is the same map for a shorter h, which is how an
 //! event inside a step is located. Nothing here allocates.
