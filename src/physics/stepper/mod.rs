@@ -112,7 +112,7 @@ impl StepMap {
     fn make_blocks(&mut self, system: &StateSpace, blocks: &Blocks, h: f64) {
         for block in blocks.iter() {
             match block.size {
-                1 => self.add_block::<1>(system, block, h),
+                1 => self.add_scalar_block(system, block, h),
                 2 => self.add_block::<2>(system, block, h),
                 3 => self.add_block::<3>(system, block, h),
                 4 => self.add_block::<4>(system, block, h),
@@ -153,20 +153,24 @@ impl StepMap {
         true
     }
 
+    /// A single lag: closed forms, no matrices.
+    #[inline]
+    fn add_scalar_block(&mut self, system: &StateSpace, block: &Block, h: f64) {
+        let state = block.states[0];
+        let (exp, phi1, phi2) = phi::scalar_phi_functions(h * system.a[(state, state)]);
+        self.transition[(state, state)] = exp;
+        for k in block.inputs() {
+            let b = system.b[(state, k)];
+            self.hold[(state, k)] = h * phi1 * b;
+            self.ramp[(state, k)] = h * h * phi2 * b;
+        }
+    }
+
+    /// A block of `N` > 1 states (out of line: its matrices need a large frame, which a
+    /// system of lags alone should not pay for).
+    #[inline(never)]
     fn add_block<const N: usize>(&mut self, system: &StateSpace, block: &Block, h: f64) {
         let states = &block.states[..N];
-        if N == 1 {
-            // A single lag: closed forms, no matrices.
-            let state = states[0];
-            let (exp, phi1, phi2) = phi::scalar_phi_functions(h * system.a[(state, state)]);
-            self.transition[(state, state)] = exp;
-            for k in block.inputs() {
-                let b = system.b[(state, k)];
-                self.hold[(state, k)] = h * phi1 * b;
-                self.ramp[(state, k)] = h * h * phi2 * b;
-            }
-            return;
-        }
         if N == 2 && self.add_triangular_pair(system, block, h) {
             return;
         }
