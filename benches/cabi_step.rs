@@ -8,6 +8,9 @@
 //! steerRate = 0.05 cos t, vsx = 0.01 sin t throughout (the inputs of the shared yardstick).
 //! The inputs are tabulated before timing. Median over timed passes after a warm-up.
 //!
+//! `TIRELAG_BENCH_STEP` sets another communication step in seconds (e.g. 0.005: steps
+//! longer than the sticking check bounds at once for the contact-mass models).
+//!
 //! Each model runs with three friction settings: `Unlimited` (the linear model), `Brush`
 //! (the default; these inputs stay below 0.2 Fmax, so every branch sticks), and `Brush`
 //! with mu = 0.02 (Fmax 1 kN: the tire slides, and steps go through the sliding path).
@@ -20,13 +23,20 @@ mod support;
 
 use support::{OK, Slave, vr};
 
-const STEP: f64 = 1e-3;
+/// The communication step, s: 1 ms unless `TIRELAG_BENCH_STEP` says otherwise.
+fn step_size() -> f64 {
+    std::env::var("TIRELAG_BENCH_STEP")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|h: &f64| *h > 0.0 && h.is_finite())
+        .unwrap_or(1e-3)
+}
 const INPUTS: [u32; 5] = [vr::VX, vr::VY, vr::STEER_RATE, vr::VSX, vr::FZ];
 
-fn input_table(varying: bool, steps: usize) -> Vec<[f64; 5]> {
+fn input_table(varying: bool, steps: usize, step: f64) -> Vec<[f64; 5]> {
     (0..steps)
         .map(|k| {
-            let t = k as f64 * STEP;
+            let t = k as f64 * step;
             let (vx, fz) = if varying {
                 (
                     10.0 + 1e-3 * (k % 1000) as f64,
@@ -41,20 +51,20 @@ fn input_table(varying: bool, steps: usize) -> Vec<[f64; 5]> {
 }
 
 /// Nanoseconds per full step, one pass over `table` on one instance.
-fn pass(slave: &mut Slave, table: &[[f64; 5]], outputs: &mut [f64; 9]) -> f64 {
+fn pass(slave: &mut Slave, table: &[[f64; 5]], step: f64, outputs: &mut [f64; 9]) -> f64 {
     let fmu = slave.fmu;
     let start = Instant::now();
     for inputs in table {
         // SAFETY: the arrays hold exactly the counts passed; the instance is live.
         unsafe {
             assert_eq!(fmu.fmi2SetReal(slave.c, INPUTS.as_ptr(), 5, inputs.as_ptr()), OK);
-            assert_eq!(fmu.fmi2DoStep(slave.c, slave.time, STEP, 1), OK);
+            assert_eq!(fmu.fmi2DoStep(slave.c, slave.time, step, 1), OK);
             assert_eq!(
                 fmu.fmi2GetReal(slave.c, vr::OUTPUTS.as_ptr(), 9, outputs.as_mut_ptr()),
                 OK
             );
         }
-        slave.time += STEP;
+        slave.time += step;
         black_box(&outputs);
     }
     start.elapsed().as_nanos() as f64 / table.len() as f64
@@ -76,10 +86,13 @@ fn main() {
         (200, 1)
     };
     let fmu = support::load();
-    let tables = [input_table(true, steps), input_table(false, steps)];
+    let step = step_size();
+    let tables = [input_table(true, steps, step), input_table(false, steps, step)];
     println!(
         "{:<26} {:>24} {:>24}",
-        "ns per step", "vx, Fz varying (min-max)", "constant (min-max)"
+        format!("ns per step (h = {} ms)", step * 1e3),
+        "vx, Fz varying (min-max)",
+        "constant (min-max)"
     );
     let settings: [Setting; 3] = [
         ("Unlimited", 1, &[]),
@@ -94,9 +107,9 @@ fn main() {
                 let integers = [(vr::MODEL, model), (vr::FRICTION, law)];
                 let mut slave = Slave::configured(&fmu, "bench", &integers, reals);
                 let mut outputs = [0.0; 9];
-                pass(&mut slave, table, &mut outputs); // warm-up
+                pass(&mut slave, table, step, &mut outputs); // warm-up
                 let times: Vec<f64> = (0..passes)
-                    .map(|_| pass(&mut slave, table, &mut outputs))
+                    .map(|_| pass(&mut slave, table, step, &mut outputs))
                     .collect();
                 let (low, high) = (
                     times.iter().copied().fold(f64::INFINITY, f64::min),

@@ -540,7 +540,7 @@ impl Tire {
             self.step_made_for = None;
             system.make_step_map(point, h);
         }
-        let (state_space, map) = system.at_step_map_point();
+        let (state_space, map, blocks) = system.at_step_map_point();
         let u0 = Self::driving_inputs(&self.inputs);
         let du = Self::driving_inputs(&self.input_rates);
         let mut next_states = map.advance(&self.states, &u0, &du);
@@ -569,6 +569,7 @@ impl Tire {
                     friction.prepare(made_for, state_space, || Limits::at(parameters, load));
                     let linear = LinearStep {
                         system: state_space,
+                        blocks,
                         transition: &map.transition,
                         start: &self.states,
                         end: &next_states,

@@ -34,6 +34,7 @@ use super::brush::{BRUSH_BRANCHES, Branch};
 use super::parameters::{Parameter, Parameters};
 use super::signals::{DrivingInput, Output};
 use super::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
+use super::stepper::{Blocks, StepMap};
 
 /// The friction law; the values are those of the FMI type `TireFriction`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -176,6 +177,10 @@ struct StickingCheck {
     /// Whether the step is short against the dynamics, so that the force bound holds
     /// (`None`: not asked yet; a step that needs no force bound never asks).
     short: Option<bool>,
+    /// For a step too long for one force bound: the parts it is bounded in (0: not
+    /// decided yet; `usize::MAX`: too many), and the exact map of one part.
+    parts: usize,
+    part_map: StepMap,
     /// Whether `rows` are made: only from the second step at the same point, since a
     /// point that changes every step is cheaper to check from the system directly.
     rows_ready: bool,
@@ -469,6 +474,7 @@ impl Friction {
         self.check.limits = limits;
         self.check.made_for = Some(made_for);
         self.check.rows_ready = false;
+        self.check.parts = 0;
     }
 
     /// The rows of [`Friction::prepare`] for a model of `N` states.
@@ -531,24 +537,16 @@ impl Friction {
     #[inline]
     pub fn sticking_step(&mut self, step: &LinearStep) -> bool {
         // The bound of a force over the step from its ends is trusted where the step is
-        // short against the dynamics; a longer step goes to the event-locating path.
-        // (Undriven elements under held inputs are bounded exactly, at any step size.)
+        // short against the dynamics; a longer step is bounded part by part, or goes to
+        // the event-locating path. (Undriven elements under held inputs are bounded
+        // exactly, at any step size.)
         let held = *step.input_rates == DrivingVector::zeros();
         let exact = self.together && self.all_undriven && held;
         if !exact && !self.short(step) {
-            return false;
+            return self.together && self.sticks_part_by_part(step, held);
         }
         if self.together {
-            let bounds = match (step.system.states, self.check.rows_ready) {
-                (2, true) => self.together_bounds::<2>(step, held),
-                (3, true) => self.together_bounds::<3>(step, held),
-                (4, true) => self.together_bounds::<4>(step, held),
-                (_, true) => self.together_bounds::<MAX_STATES>(step, held),
-                (2, false) => self.together_bounds_direct::<2>(step, held),
-                (3, false) => self.together_bounds_direct::<3>(step, held),
-                (4, false) => self.together_bounds_direct::<4>(step, held),
-                (_, false) => self.together_bounds_direct::<MAX_STATES>(step, held),
-            };
+            let bounds = self.together_bounds_any(step, held);
             return self.within_limits(&bounds);
         }
         if self.state.any_sliding() {
@@ -568,6 +566,69 @@ impl Friction {
             }
             None => false,
         }
+    }
+
+    /// [`Friction::together_bounds`] where the rows are made, else
+    /// [`Friction::together_bounds_direct`], sized by the model's state count.
+    fn together_bounds_any(&self, step: &LinearStep, held: bool) -> [f64; Direction::COUNT] {
+        match (step.system.states, self.check.rows_ready) {
+            (2, true) => self.together_bounds::<2>(step, held),
+            (3, true) => self.together_bounds::<3>(step, held),
+            (4, true) => self.together_bounds::<4>(step, held),
+            (_, true) => self.together_bounds::<MAX_STATES>(step, held),
+            (2, false) => self.together_bounds_direct::<2>(step, held),
+            (3, false) => self.together_bounds_direct::<3>(step, held),
+            (4, false) => self.together_bounds_direct::<4>(step, held),
+            (_, false) => self.together_bounds_direct::<MAX_STATES>(step, held),
+        }
+    }
+
+    /// [`Friction::sticking_step`] for a step too long for one force bound, while every
+    /// branch is at its element's state: the step is cut into equal parts short against
+    /// the dynamics, each part's states come from the exact map of one part, and each part
+    /// is bounded. (The step itself stays the exact map of the whole step.) The map of a
+    /// part is made once per step map; past [`MAX_CHECK_PARTS`] parts the step goes to the
+    /// event-locating path.
+    fn sticks_part_by_part(&mut self, step: &LinearStep, held: bool) -> bool {
+        if self.check.parts == 0 {
+            let parts = (step.h * self.fastest_rate(step.system) / MAX_STICKING_STEP).ceil();
+            self.check.parts = if parts <= MAX_CHECK_PARTS as f64 {
+                let parts = parts.max(1.0) as usize;
+                self.check
+                    .part_map
+                    .make(step.system, step.blocks, step.h / parts as f64);
+                parts
+            } else {
+                usize::MAX
+            };
+        }
+        if self.check.parts == usize::MAX {
+            return false;
+        }
+        let (parts, map) = (self.check.parts, &self.check.part_map);
+        let length = step.h / parts as f64;
+        let (mut x, mut worst) = (*step.start, [0.0; Direction::COUNT]);
+        for i in 0..parts {
+            let inputs = step.inputs + step.input_rates * (i as f64 * length);
+            let next = map.advance(&x, &inputs, step.input_rates);
+            let part = LinearStep {
+                transition: &map.transition,
+                start: &x,
+                end: &next,
+                inputs: &inputs,
+                h: length,
+                ..*step
+            };
+            let bounds = self.together_bounds_any(&part, held);
+            for (worst, bound) in worst.iter_mut().zip(bounds) {
+                // NaN is kept (and refused by the limits).
+                if bound.is_nan() || bound > *worst {
+                    *worst = bound;
+                }
+            }
+            x = next;
+        }
+        self.within_limits(&worst)
     }
 
     /// For [`Friction::sticking_step`] while every branch is at its element's state, from
@@ -828,11 +889,16 @@ impl Friction {
 /// takes on its own ([`Friction::sticking_step`]).
 const MAX_STICKING_STEP: f64 = 0.5;
 
+/// The most parts a long sticking step is bounded in ([`Friction::sticks_part_by_part`]).
+const MAX_CHECK_PARTS: usize = 256;
+
 /// An exact linear step just made, for the sticking check: the system and its step map's
 /// transition, the states at both ends, and the driving inputs with their rates.
 #[derive(Clone, Copy)]
 pub struct LinearStep<'a> {
     pub system: &'a StateSpace,
+    /// The system's decoupled blocks (to make a step map of part of the step).
+    pub blocks: &'a Blocks,
     pub transition: &'a StateMatrix,
     pub start: &'a StateVector,
     pub end: &'a StateVector,
@@ -875,7 +941,36 @@ pub fn force_bound(start: f64, end: f64, start_rate: f64, end_rate: f64, h: f64)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::{ModelKind, Parameter, Parameters, Tire};
+    use crate::physics::stepper::{AffineSystem, ContactSystem};
+    use crate::physics::{Input, ModelKind, Parameter, Parameters, Tire};
+
+    /// Steps of 2 to 20 ms, longer than the force bound takes at once for the contact-mass
+    /// models, while every branch sticks: they are bounded part by part and are the exact
+    /// linear steps, to the bit (the event-locating path would differ in the last digits).
+    #[test]
+    fn long_sticking_steps_are_the_linear_steps_to_the_bit() {
+        for model in ModelKind::ALL {
+            for h in [2e-3, 5e-3, 2e-2] {
+                let brush = Parameters::default()
+                    .with_model(model)
+                    .with_friction(FrictionLaw::Brush);
+                let linear = brush.clone().with_friction(FrictionLaw::Unlimited);
+                let mut tires = [Tire::new(brush).unwrap(), Tire::new(linear).unwrap()];
+                for k in 0..100 {
+                    let t = k as f64 * h;
+                    for tire in &mut tires {
+                        tire.set_input(Input::Vx, 10.0);
+                        tire.set_input(Input::Vy, 0.05 * t.sin());
+                        tire.set_input(Input::SteerRate, 0.02 * t.cos());
+                        tire.set_input(Input::Vsx, 0.005 * t.sin());
+                        tire.step(h).unwrap();
+                    }
+                    let [brush, linear] = &mut tires;
+                    assert_eq!(brush.outputs(), linear.outputs(), "{model:?}, h {h}, step {k}");
+                }
+            }
+        }
+    }
 
     /// The rows made once per operating point and the direct evaluation from the system
     /// bound the same forces, for every model and law, held and ramped inputs.
@@ -890,6 +985,9 @@ mod tests {
                 let elements = model.equations().contact_elements(&parameters);
                 let coupling = system.a.map(f64::abs).transpose().data.0;
                 let mut friction = Friction::new(law, elements, &coupling).unwrap();
+                let contact = ContactSystem::new(AffineSystem::from_samples(|at| {
+                    model.equations().system(&parameters, &at)
+                }));
                 let h: f64 = 1e-3;
                 let key = [7.0_f64.to_bits(), load.to_bits(), h.to_bits()];
                 friction.prepare(key, &system, || Limits::at(&parameters, load));
@@ -910,6 +1008,7 @@ mod tests {
                 for input_rates in [DrivingVector::zeros(), DrivingVector::new(0.4, -0.2, 0.3)] {
                     let step = LinearStep {
                         system: &system,
+                        blocks: contact.blocks(),
                         transition: &system.a,
                         start: &start,
                         end: &end,

@@ -45,6 +45,12 @@ pub struct StepMap {
     pub ramp: InputMatrix,
 }
 
+impl Default for StepMap {
+    fn default() -> Self {
+        Self::zeros()
+    }
+}
+
 impl StepMap {
     pub fn advance(&self, x: &StateVector, u0: &DrivingVector, du: &DrivingVector) -> StateVector {
         match self.states {
@@ -276,13 +282,13 @@ impl ContactSystem {
 
     /// The system at the operating point of the step map last made, and that map.
     #[inline]
-    pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap) {
+    pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap, &Blocks) {
         if !self.current_at_map_point {
             self.affine.evaluate(self.map_point, &mut self.current);
             self.current_point = self.map_point;
             self.current_at_map_point = true;
         }
-        (&self.current, &self.map)
+        (&self.current, &self.map, &self.blocks)
     }
 
     /// The step map last made.
