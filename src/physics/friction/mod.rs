@@ -23,7 +23,7 @@
 //!    The step is kept if no branch can have reached its limit within it: an element
 //!    whose state nothing else drives, under held inputs, is bounded exactly by its force
 //!    at the two ends (at any step size); the others by [`force_bound`], trusted only for
-//!    steps short against the dynamics.
+//!    steps short against the dynamics, so a longer step is bounded part by part.
 //! 3. Otherwise [`sliding`] integrates the branches and the model together, piece by
 //!    piece between stick/slide events located in time, to 1e-12.
 
