@@ -85,12 +85,18 @@ fn the_counter_sees_an_allocation() {
 fn a_step_allocates_nothing_after_the_first() {
     let callbacks = support::callbacks();
     let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
-    // Each model without a limit, with Brush (sticking at these inputs), and with Brush
-    // at mu = 0.02 (sliding: every step goes through the sliding integration).
-    let settings = [(1, None), (3, None), (3, Some(0.02))];
+    // Each model without a limit, with Brush (sticking at these inputs), with Brush at
+    // mu = 0.02 (sliding: every step goes through the sliding integration), and with Brush
+    // at 5 ms steps (sticking steps longer than one force bound: bounded part by part).
+    let settings = [
+        (1, None, 1e-3),
+        (3, None, 1e-3),
+        (3, Some(0.02), 1e-3),
+        (3, None, 5e-3),
+    ];
     for model in 1..=4 {
-        for (friction, mu) in settings {
-            let name = CString::new(format!("no_allocation_{model}_{friction}")).unwrap();
+        for (friction, mu, h) in settings {
+            let name = CString::new(format!("no_allocation_{model}_{friction}_{h}")).unwrap();
             let c = fmi2Instantiate(
                 name.as_ptr(),
                 fmi2Type_fmi2CoSimulation,
@@ -113,7 +119,7 @@ fn a_step_allocates_nothing_after_the_first() {
             let mut outputs = [0.0; 9];
             let mut step = |k: usize| {
                 assert_eq!(fmi2SetReal(c, INPUTS.as_ptr(), 5, table[k].as_ptr()) as i32, OK);
-                assert_eq!(fmi2DoStep(c, k as f64 * 1e-3, 1e-3, 1) as i32, OK);
+                assert_eq!(fmi2DoStep(c, k as f64 * h, h, 1) as i32, OK);
                 assert_eq!(
                     fmi2GetReal(c, OUTPUTS.as_ptr(), 9, outputs.as_mut_ptr()) as i32,
                     OK
@@ -123,7 +129,7 @@ fn a_step_allocates_nothing_after_the_first() {
             let allocations = allocations_in(|| (1..=10_000).for_each(&mut step));
             assert_eq!(
                 allocations, 0,
-                "model {model}, friction {friction}, mu {mu:?}: {allocations} allocations in 10,000 steps"
+                "model {model}, friction {friction}, mu {mu:?}, h {h}: {allocations} allocations in 10,000 steps"
             );
             assert!(outputs.iter().all(|v| v.is_finite()) && outputs[1] != 0.0);
             if mu.is_some() {
