@@ -280,7 +280,8 @@ impl ContactSystem {
         &self.map
     }
 
-    /// The system at the operating point of the step map last made, and that map.
+    /// The system at the operating point of the step map last made, that map, and the
+    /// blocks it was made for.
     #[inline]
     pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap, &Blocks) {
         if !self.current_at_map_point {
@@ -289,16 +290,5 @@ impl ContactSystem {
             self.current_at_map_point = true;
         }
         (&self.current, &self.map, &self.blocks)
-    }
-
-    /// The step map last made.
-    pub fn step_map(&self) -> &StepMap {
-        &self.map
-    }
-
-    /// The system at the point last asked for ([`ContactSystem::at`]) and the step map
-    /// last made.
-    pub fn current_and_step_map(&self) -> (&StateSpace, &StepMap) {
-        (&self.current, &self.map)
     }
 }
