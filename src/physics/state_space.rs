@@ -26,7 +26,7 @@ pub struct StateSpace {
     pub c: OutputMatrix,
     pub d: FeedthroughMatrix,
     /// Whether column k of `d` may be nonzero (at some operating point): the outputs skip
-    /// the others. All true unless the pattern is known ([`StateSpace::set_feedthrough_pattern`]).
+    /// the others. All true unless the pattern is known (the affine form marks it).
     pub feedthrough: [bool; DrivingInput::COUNT],
 }
 
@@ -44,11 +44,6 @@ impl StateSpace {
         }
     }
 
-    /// Records which driving inputs feed the outputs directly: `nonzero[k]` false only if
-    /// column k of `d` is zero at every operating point.
-    pub fn set_feedthrough_pattern(&mut self, nonzero: [bool; DrivingInput::COUNT]) {
-        self.feedthrough = nonzero;
-    }
 
     /// `y = C x + D u`.
     pub fn outputs(&self, x: &StateVector, u: &DrivingVector) -> OutputVector {

@@ -194,17 +194,30 @@ struct StickingCheck {
 /// A row over the states (the first [`MAX_STATES`] entries) and the driving inputs.
 type Row = [f64; MAX_STATES + DrivingInput::COUNT];
 
-/// An element's force `force . [x, u]` and its rate `rate . [x, u] + rate_input_rates . du`.
-/// A spring's force is its stiffness times its state.
+/// An element's force `force . [x, u]` and its rate `rate . [x, u] + rate_input_rates . du`
+/// (the element itself is the [`PresentElement`] of the same index).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct ElementRows {
-    direction: usize,
-    state: usize,
-    stiffness: f64,
-    damped: bool,
     force: Row,
     rate: Row,
     rate_input_rates: [f64; DrivingInput::COUNT],
+}
+
+/// What the sticking check carries from part to part of a step: the worst share of the
+/// first-branch limits (branches together), or the branch offsets (branches apart).
+#[derive(Clone, Copy)]
+struct PartBounds {
+    worst: [f64; Direction::COUNT],
+    offsets: [[f64; MAX_BRANCHES]; Direction::COUNT],
+}
+
+impl PartBounds {
+    fn start(state: &SliderState) -> Self {
+        Self {
+            worst: [0.0; Direction::COUNT],
+            offsets: state.offsets,
+        }
+    }
 }
 
 /// Each branch's deflection and whether its groups slide.
@@ -488,10 +501,6 @@ impl Friction {
             .zip(&self.present[..self.present_count])
         {
             let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
-            rows.direction = element.direction;
-            rows.state = k;
-            rows.stiffness = stiffness;
-            rows.damped = damping > 0.0;
             let (a_k, b_k) = (a.row(k), b.row(k));
             // A spring's force C U has the rate C dU/dt, dU/dt = A_k x + B_k u.
             rows.force = [0.0; MAX_STATES + DrivingInput::COUNT];
@@ -502,7 +511,7 @@ impl Friction {
             for i in 0..DrivingInput::COUNT {
                 rows.rate[MAX_STATES + i] = stiffness * b_k[i];
             }
-            if !rows.damped {
+            if damping == 0.0 {
                 continue;
             }
             // A spring-damper's force C U + D dU/dt has the rate C dU/dt + D d2U/dt2,
@@ -540,26 +549,59 @@ impl Friction {
         // short against the dynamics; a longer step is bounded part by part, or goes to
         // the event-locating path. (Undriven elements under held inputs are bounded
         // exactly, at any step size.)
+        if !self.together && self.state.any_sliding() {
+            return false;
+        }
         let held = *step.input_rates == DrivingVector::zeros();
         let exact = self.together && self.all_undriven && held;
         if !exact && !self.short(step) {
-            return !self.state.any_sliding() && self.sticks_part_by_part(step, held);
+            return self.sticks_part_by_part(step, held);
         }
         if self.together {
-            let bounds = self.together_bounds_any(step, held);
-            return self.within_limits(&bounds);
+            // The usual case, kept short: one bound per element.
+            return self.within_limits(&self.together_bounds_any(step, held));
         }
-        if self.state.any_sliding() {
-            return false;
+        let mut bounds = PartBounds::start(&self.state);
+        self.bound_part(step, held, &mut bounds) && self.commit(bounds)
+    }
+
+    /// Bounds the branch forces over one step (or one part of it) and adds the result to
+    /// `bounds`: the largest share of the first-branch limits while every branch is at its
+    /// element's state, else the branch offsets at the part's end. False if a limit may be
+    /// reached.
+    #[inline]
+    fn bound_part(&self, part: &LinearStep, held: bool, bounds: &mut PartBounds) -> bool {
+        if self.together {
+            for (worst, bound) in bounds.worst.iter_mut().zip(self.together_bounds_any(part, held)) {
+                // NaN is kept (and refused by the limits).
+                if bound.is_nan() || bound > *worst {
+                    *worst = bound;
+                }
+            }
+            return true;
         }
-        match self.offset_bounds_any(step, self.state.offsets) {
+        match self.offset_bounds_any(part, bounds.offsets) {
             Some(offsets) => {
-                let sliding = self.state.sliding;
-                self.set_state(SliderState { offsets, sliding });
+                bounds.offsets = offsets;
                 true
             }
             None => false,
         }
+    }
+
+    /// After every part is bounded: whether the branches stick through the step, and if
+    /// they differ, their offsets moved to its end.
+    #[inline]
+    fn commit(&mut self, bounds: PartBounds) -> bool {
+        if self.together {
+            return self.within_limits(&bounds.worst);
+        }
+        let sliding = self.state.sliding;
+        self.set_state(SliderState {
+            offsets: bounds.offsets,
+            sliding,
+        });
+        true
     }
 
     /// [`Friction::together_bounds`] where the rows are made, else
@@ -617,8 +659,7 @@ impl Friction {
         }
         let (parts, map) = (self.check.parts, &self.check.part_map);
         let length = step.h / parts as f64;
-        let (mut x, mut worst) = (*step.start, [0.0; Direction::COUNT]);
-        let mut offsets = self.state.offsets;
+        let (mut x, mut bounds) = (*step.start, PartBounds::start(&self.state));
         for i in 0..parts {
             let inputs = step.inputs + step.input_rates * (i as f64 * length);
             let next = map.advance(&x, &inputs, step.input_rates);
@@ -630,28 +671,12 @@ impl Friction {
                 h: length,
                 ..*step
             };
-            if self.together {
-                let bounds = self.together_bounds_any(&part, held);
-                for (worst, bound) in worst.iter_mut().zip(bounds) {
-                    // NaN is kept (and refused by the limits).
-                    if bound.is_nan() || bound > *worst {
-                        *worst = bound;
-                    }
-                }
-            } else {
-                match self.offset_bounds_any(&part, offsets) {
-                    Some(next_offsets) => offsets = next_offsets,
-                    None => return false,
-                }
+            if !self.bound_part(&part, held, &mut bounds) {
+                return false;
             }
             x = next;
         }
-        if self.together {
-            return self.within_limits(&worst);
-        }
-        let sliding = self.state.sliding;
-        self.set_state(SliderState { offsets, sliding });
-        true
+        self.commit(bounds)
     }
 
     /// For [`Friction::sticking_step`] while every branch is at its element's state, from
@@ -679,10 +704,11 @@ impl Friction {
         };
         let check = &self.check;
         let mut scaled_bound = [0.0; Direction::COUNT];
-        for (rows, &undriven) in check.rows[..self.present_count].iter().zip(&self.undriven) {
-            let k = rows.state;
+        let elements = self.present[..self.present_count].iter().zip(&check.rows);
+        for ((element, rows), &undriven) in elements.zip(&self.undriven) {
+            let k = element.state;
             // A spring's force, or an undriven element's, has one state term.
-            let (f0, f1) = if rows.damped {
+            let (f0, f1) = if element.damping > 0.0 {
                 let (p0, p1) = input_ends(&rows.force);
                 if undriven {
                     (rows.force[k] * start[k] + p0, rows.force[k] * end[k] + p1)
@@ -690,7 +716,7 @@ impl Friction {
                     (states(&rows.force, start) + p0, states(&rows.force, end) + p1)
                 }
             } else {
-                (rows.stiffness * start[k], rows.stiffness * end[k])
+                (element.stiffness * start[k], element.stiffness * end[k])
             };
             let bound = if held && undriven {
                 f0.abs().max(f1.abs())
@@ -706,7 +732,7 @@ impl Friction {
                 let r1 = states(&rows.rate, end) + p1 + change;
                 force_bound(f0, f1, r0, r1, h)
             };
-            scaled_bound[rows.direction] = bound * check.scale[rows.direction];
+            scaled_bound[element.direction] = bound * check.scale[element.direction];
         }
         scaled_bound
     }

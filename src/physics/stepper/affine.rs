@@ -265,7 +265,7 @@ impl AffineSystem {
         for term in self.varying().iter().filter(|t| t.matrix == Matrix::D) {
             nonzero[term.index as usize / rows] = true;
         }
-        self.at_rest.set_feedthrough_pattern(nonzero);
+        self.at_rest.feedthrough = nonzero;
     }
 
     fn varying(&self) -> &[VaryingTerm] {
