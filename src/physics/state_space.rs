@@ -44,7 +44,6 @@ impl StateSpace {
         }
     }
 
-
     /// `y = C x + D u`.
     pub fn outputs(&self, x: &StateVector, u: &DrivingVector) -> OutputVector {
         // Column by column over the inputs that feed through and the states in use (a
