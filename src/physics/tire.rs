@@ -9,7 +9,7 @@ use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
 use super::signals::{Input, OutputVector};
 use super::state_space::{DrivingVector, StateSpace, StateVector};
-use super::stepper::{AffineSystem, ContactSystem, OperatingPoint};
+use super::stepper::{AffineSystem, ContactSystem, OperatingPoint, StepKey};
 
 /// How fast the deflections relax while the wheel is off the ground, s: a free carcass
 /// springs back within a few hundredths of a second.
@@ -77,10 +77,6 @@ impl fmt::Display for StepError {
 
 impl std::error::Error for StepError {}
 
-/// What the step map was last made for: the bits of vx, Fz (at mid-step) and the step
-/// size. For one parameter set they decide the operating point and the contact mode.
-type StepKey = [u64; 3];
-
 /// A tire with one of the four tire-lag models.
 ///
 /// Inputs are held, or ramped with their rates, over a step; `step` advances the states
@@ -98,11 +94,19 @@ pub struct Tire {
     states: StateVector,
     inputs: [f64; Input::COUNT],
     input_rates: [f64; Input::COUNT],
+    /// The driving inputs of `inputs` and `input_rates`, kept with them: the step reads
+    /// them where they were stored when set. (One just built, one value at a time, would
+    /// stall the step's wide loads until the stores land.)
+    driving: DrivingVector,
+    driving_rates: DrivingVector,
     /// Whether any input rate is not zero.
     ramping: bool,
-    /// What the step map of the mode last stepped in was made for (`None`: not valid).
-    step_made_for: Option<StepKey>,
-    outputs: Option<OutputVector>,
+    /// What the step map of the mode last stepped in was made for ([`StepKey::NONE`]:
+    /// not valid).
+    step_made_for: StepKey,
+    /// The outputs at the current states and inputs, while `outputs_current`.
+    outputs: OutputVector,
+    outputs_current: bool,
     /// The friction sliders (`None` for the Unlimited law).
     friction: Option<Friction>,
 }
@@ -135,9 +139,12 @@ impl Tire {
             states: StateVector::zeros(),
             inputs,
             input_rates: [0.0; Input::COUNT],
+            driving: Self::driving_inputs(&inputs),
+            driving_rates: DrivingVector::zeros(),
             ramping: false,
-            step_made_for: None,
-            outputs: None,
+            step_made_for: StepKey::NONE,
+            outputs: OutputVector::zeros(),
+            outputs_current: false,
             friction,
         })
     }
@@ -157,7 +164,7 @@ impl Tire {
             return Err(format!("branch offset {bad} is not finite"));
         }
         friction.set_state(*sliders);
-        self.outputs = None;
+        self.outputs_current = false;
         Ok(())
     }
 
@@ -195,7 +202,7 @@ impl Tire {
         if let Some(friction) = self.friction.as_mut() {
             friction.reset();
         }
-        self.outputs = None;
+        self.outputs_current = false;
         Ok(())
     }
 
@@ -217,7 +224,8 @@ impl Tire {
             .any(|(a, b)| a.to_bits() != b.to_bits())
         {
             self.inputs = inputs;
-            self.outputs = None;
+            self.driving = Self::driving_inputs(&inputs);
+            self.outputs_current = false;
         }
     }
 
@@ -225,7 +233,8 @@ impl Tire {
     pub fn set_input(&mut self, input: Input, value: f64) {
         if self.inputs[input as usize].to_bits() != value.to_bits() {
             self.inputs[input as usize] = value;
-            self.outputs = None;
+            self.driving = Self::driving_inputs(&self.inputs);
+            self.outputs_current = false;
         }
     }
 
@@ -237,6 +246,7 @@ impl Tire {
     /// ramps of vy, steerRate and vsx; vx and Fz are taken at the middle of the step.
     pub fn set_input_rate(&mut self, input: Input, rate: f64) {
         self.input_rates[input as usize] = rate;
+        self.driving_rates = Self::driving_inputs(&self.input_rates);
         self.ramping = self.input_rates.iter().any(|&r| r != 0.0);
     }
 
@@ -296,7 +306,7 @@ impl Tire {
 
     /// Outputs for the current states and inputs, computed once per change of either.
     pub fn outputs_ref(&mut self) -> &OutputVector {
-        if self.outputs.is_none() {
+        if !self.outputs_current {
             let states = self.states;
             let outputs = match self.friction.as_ref().map(|f| *f.state()) {
                 Some(sliders) => self.outputs_with_limits(&states, &sliders, &self.inputs.clone()),
@@ -305,9 +315,10 @@ impl Tire {
                     self.current_system().outputs(&states, &u)
                 }
             };
-            self.outputs = Some(outputs);
+            self.outputs = outputs;
+            self.outputs_current = true;
         }
-        self.outputs.as_ref().expect("computed above")
+        &self.outputs
     }
 
     /// The friction step at these inputs, for outputs and their derivatives: `None` off
@@ -489,8 +500,8 @@ impl Tire {
             };
             [
                 1.0,
-                rho_per_vx * point.inverse_lateral_factor,
-                rho_per_vx * point.inverse_longitudinal_factor,
+                rho_per_vx * point.inverse_lateral_factor(),
+                rho_per_vx * point.inverse_longitudinal_factor(),
                 0.0,
                 0.0,
             ]
@@ -527,8 +538,8 @@ impl Tire {
             (self.input(Input::Vx), self.input(Input::Fz))
         };
         let mode = ContactMode::from_load(load);
-        let made_for: StepKey = [vx.to_bits(), load.to_bits(), h.to_bits()];
-        let fresh = self.step_made_for == Some(made_for);
+        let made_for = StepKey::new(vx, load, h);
+        let fresh = self.step_made_for.same_as(&made_for);
         // The operating point only for a new map; a map in hand knows its own.
         let point = (!fresh).then(|| self.operating_point(vx, load));
         let system = match mode {
@@ -537,13 +548,14 @@ impl Tire {
         };
         if let Some(point) = point {
             // Invalid until made: a refused step must not leave a half-made map behind.
-            self.step_made_for = None;
+            self.step_made_for = StepKey::NONE;
             system.make_step_map(point, h);
         }
         let (state_space, map, blocks) = system.at_step_map_point();
-        let u0 = Self::driving_inputs(&self.inputs);
-        let du = Self::driving_inputs(&self.input_rates);
-        let mut next_states = map.advance(&self.states, &u0, &du);
+        let (u0, du) = (&self.driving, &self.driving_rates);
+        let rate = |input: Input| self.input_rates[input as usize];
+        let driving_held = rate(Input::Vy) == 0.0 && rate(Input::SteerRate) == 0.0 && rate(Input::Vsx) == 0.0;
+        let mut next_states = map.advance(&self.states, u0, ramping.then_some(du));
         let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
         // States past the model's count stay zero; held inputs stay as they were set.
         if !finite(&next_states.as_slice()[..state_space.states]) {
@@ -573,8 +585,9 @@ impl Tire {
                         transition: &map.transition,
                         start: &self.states,
                         end: &next_states,
-                        inputs: &u0,
-                        input_rates: &du,
+                        inputs: u0,
+                        input_rates: du,
+                        held: driving_held,
                         h,
                     };
                     if !friction.sticking_step(&linear) {
@@ -582,7 +595,7 @@ impl Tire {
                         let mut start = self.states;
                         let limits = friction.limits();
                         let sliding_step =
-                            SlidingStep::new(state_space, friction, limits, (u0, du), self.states.amax());
+                            SlidingStep::new(state_space, friction, limits, (*u0, *du), self.states.amax());
                         sliding_step.prepare(&mut start, &mut sliders);
                         sliding_step
                             .integrate(&mut start, &mut sliders, h)
@@ -600,10 +613,16 @@ impl Tire {
         // Held inputs end the step where they started: the outputs there come from the
         // system already at hand, so compute them now rather than look it up again.
         // (After a step with sliding the limits shape them: they are computed on demand.)
-        self.outputs = (!ramping && !sliding).then(|| state_space.outputs(&next_states, &u0));
-        self.step_made_for = Some(made_for);
+        self.outputs_current = !ramping && !sliding;
+        if self.outputs_current {
+            self.outputs = state_space.outputs(&next_states, u0);
+        }
+        self.step_made_for = made_for;
         self.states = next_states;
-        self.inputs = next_inputs;
+        if ramping {
+            self.inputs = next_inputs;
+            self.driving = Self::driving_inputs(&next_inputs);
+        }
         Ok(())
     }
 

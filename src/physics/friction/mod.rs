@@ -34,7 +34,7 @@ use super::brush::{BRUSH_BRANCHES, Branch};
 use super::parameters::{Parameter, Parameters};
 use super::signals::{DrivingInput, Output};
 use super::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
-use super::stepper::{Blocks, StepMap};
+use super::stepper::{Blocks, StepKey, StepMap};
 
 /// The friction law; the values are those of the FMI type `TireFriction`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -171,8 +171,8 @@ struct PresentElement {
 /// The sticking check at one operating point and step size ([`Friction::prepare`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 struct StickingCheck {
-    /// The bits of vx, Fz and h it was made for (`None`: not made yet).
-    made_for: Option<[u64; 3]>,
+    /// The bits of vx, Fz and h it was made for ([`StepKey::NONE`]: not made yet).
+    made_for: StepKey,
     limits: Limits,
     /// Whether the step is short against the dynamics, so that the force bound holds
     /// (`None`: not asked yet; a step that needs no force bound never asks).
@@ -458,17 +458,17 @@ impl Friction {
     /// it.) Kept while `made_for` does not change, so a step at a constant operating point
     /// only applies the rows.
     #[inline]
-    pub fn prepare(&mut self, made_for: [u64; 3], system: &StateSpace, limits: impl FnOnce() -> Limits) {
+    pub fn prepare(&mut self, made_for: StepKey, system: &StateSpace, limits: impl FnOnce() -> Limits) {
         // The usual case, a step at the point of the last one with its rows made: nothing.
-        if self.check.made_for != Some(made_for) || !self.check.rows_ready {
+        if !self.check.made_for.same_as(&made_for) || !self.check.rows_ready {
             self.remake_check(made_for, system, limits);
         }
     }
 
     /// [`Friction::prepare`] at a new point, or at the same point for a second step.
     #[inline(never)]
-    fn remake_check(&mut self, made_for: [u64; 3], system: &StateSpace, limits: impl FnOnce() -> Limits) {
-        if self.check.made_for == Some(made_for) {
+    fn remake_check(&mut self, made_for: StepKey, system: &StateSpace, limits: impl FnOnce() -> Limits) {
+        if self.check.made_for.same_as(&made_for) {
             // A second step at the same point: the rows pay off from now on.
             if !self.check.rows_ready {
                 match system.states {
@@ -485,7 +485,7 @@ impl Friction {
         self.check.short = None;
         self.check.scale = limits.0.map(|limit| self.inverse_first_breakpoint / limit);
         self.check.limits = limits;
-        self.check.made_for = Some(made_for);
+        self.check.made_for = made_for;
         self.check.rows_ready = false;
         self.check.parts = 0;
     }
@@ -552,14 +552,14 @@ impl Friction {
         if !self.together && self.state.any_sliding() {
             return false;
         }
-        let held = *step.input_rates == DrivingVector::zeros();
+        let held = step.held;
         let exact = self.together && self.all_undriven && held;
         if !exact && !self.short(step) {
             return self.sticks_part_by_part(step, held);
         }
         if self.together {
             // The usual case, kept short: one bound per element.
-            return self.within_limits(&self.together_bounds_any(step, held));
+            return self.together_bounds_any::<GroupUtilisation>(step, held).within();
         }
         let mut bounds = PartBounds::start(&self.state);
         self.bound_part(step, held, &mut bounds) && self.commit(bounds)
@@ -572,7 +572,8 @@ impl Friction {
     #[inline]
     fn bound_part(&self, part: &LinearStep, held: bool, bounds: &mut PartBounds) -> bool {
         if self.together {
-            for (worst, bound) in bounds.worst.iter_mut().zip(self.together_bounds_any(part, held)) {
+            let part_bounds: [f64; Direction::COUNT] = self.together_bounds_any(part, held);
+            for (worst, bound) in bounds.worst.iter_mut().zip(part_bounds) {
                 // NaN is kept (and refused by the limits).
                 if bound.is_nan() || bound > *worst {
                     *worst = bound;
@@ -606,16 +607,23 @@ impl Friction {
 
     /// [`Friction::together_bounds`] where the rows are made, else
     /// [`Friction::together_bounds_direct`], sized by the model's state count.
-    fn together_bounds_any(&self, step: &LinearStep, held: bool) -> [f64; Direction::COUNT] {
-        match (step.system.states, self.check.rows_ready) {
-            (2, true) => self.together_bounds::<2>(step, held),
-            (3, true) => self.together_bounds::<3>(step, held),
-            (4, true) => self.together_bounds::<4>(step, held),
-            (_, true) => self.together_bounds::<MAX_STATES>(step, held),
-            (2, false) => self.together_bounds_direct::<2>(step, held),
-            (3, false) => self.together_bounds_direct::<3>(step, held),
-            (4, false) => self.together_bounds_direct::<4>(step, held),
-            (_, false) => self.together_bounds_direct::<MAX_STATES>(step, held),
+    fn together_bounds_any<S: ScaledBounds>(&self, step: &LinearStep, held: bool) -> S {
+        match step.system.states {
+            2 => self.together_bounds_sized::<2, S>(step, held),
+            3 => self.together_bounds_sized::<3, S>(step, held),
+            4 => self.together_bounds_sized::<4, S>(step, held),
+            _ => self.together_bounds_sized::<MAX_STATES, S>(step, held),
+        }
+    }
+
+    /// [`Friction::together_bounds_any`] for a model of `N` states (out of line: the
+    /// bounds take a large frame, which a step without friction should not pay for).
+    #[inline(never)]
+    fn together_bounds_sized<const N: usize, S: ScaledBounds>(&self, step: &LinearStep, held: bool) -> S {
+        if self.check.rows_ready {
+            self.together_bounds::<N, S>(step, held)
+        } else {
+            self.together_bounds_direct::<N, S>(step, held)
         }
     }
 
@@ -662,7 +670,7 @@ impl Friction {
         let (mut x, mut bounds) = (*step.start, PartBounds::start(&self.state));
         for i in 0..parts {
             let inputs = step.inputs + step.input_rates * (i as f64 * length);
-            let next = map.advance(&x, &inputs, step.input_rates);
+            let next = map.advance(&x, &inputs, (!held).then_some(step.input_rates));
             let part = LinearStep {
                 transition: &map.transition,
                 start: &x,
@@ -683,8 +691,8 @@ impl Friction {
     /// the rows: a bound on each direction's element force over the step, as a share of
     /// its first branch's limit (each branch carries `w_i` of the element force, so the
     /// first breakpoint decides).
-    #[inline(never)]
-    fn together_bounds<const N: usize>(&self, step: &LinearStep, held: bool) -> [f64; Direction::COUNT] {
+    #[inline(always)]
+    fn together_bounds<const N: usize, S: ScaledBounds>(&self, step: &LinearStep, held: bool) -> S {
         let LinearStep { start, end, h, .. } = *step;
         let (u0, du, u1) = step.driving_inputs();
         let states = |row: &Row, x: &StateVector| {
@@ -703,9 +711,10 @@ impl Friction {
             (first, if held { first } else { inputs(row, &u1) })
         };
         let check = &self.check;
-        let mut scaled_bound = [0.0; Direction::COUNT];
-        let elements = self.present[..self.present_count].iter().zip(&check.rows);
-        for ((element, rows), &undriven) in elements.zip(&self.undriven) {
+        let mut scaled_bound = S::default();
+        // By index: a zip of the three arrays costs more than their bounds checks.
+        for e in 0..self.present_count.min(Direction::COUNT) {
+            let (element, rows, undriven) = (&self.present[e], &check.rows[e], self.undriven[e]);
             let k = element.state;
             // A spring's force, or an undriven element's, has one state term.
             let (f0, f1) = if element.damping > 0.0 {
@@ -719,7 +728,7 @@ impl Friction {
                 (element.stiffness * start[k], element.stiffness * end[k])
             };
             let bound = if held && undriven {
-                f0.abs().max(f1.abs())
+                larger(f0.abs(), f1.abs())
             } else {
                 let change = if held {
                     0.0
@@ -732,19 +741,15 @@ impl Friction {
                 let r1 = states(&rows.rate, end) + p1 + change;
                 force_bound(f0, f1, r0, r1, h)
             };
-            scaled_bound[element.direction] = bound * check.scale[element.direction];
+            scaled_bound.put(element.direction, bound * check.scale[element.direction]);
         }
         scaled_bound
     }
 
     /// [`Friction::together_bounds`] from the system itself, without the rows: the state
     /// rates at both ends, then each element's force and force rate.
-    #[inline(never)]
-    fn together_bounds_direct<const N: usize>(
-        &self,
-        step: &LinearStep,
-        held: bool,
-    ) -> [f64; Direction::COUNT] {
+    #[inline(always)]
+    fn together_bounds_direct<const N: usize, S: ScaledBounds>(&self, step: &LinearStep, held: bool) -> S {
         let LinearStep {
             system,
             start,
@@ -756,8 +761,17 @@ impl Friction {
         let (a, b) = (system.a.as_slice(), system.b.as_slice());
         let (x0, x1) = (&start.as_slice()[..N], &end.as_slice()[..N]);
         let (u0, du, u1) = step.driving_inputs();
-        let input_term =
-            |i: usize, u: &[f64; 3]| b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
+        // B u for every state at once, column by column (the columns are contiguous): at
+        // the start, at the end (the same while held), and for the input rates.
+        let inputs_times = |u: &[f64; 3]| -> [f64; N] {
+            std::array::from_fn(|i| b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2])
+        };
+        let input0 = inputs_times(&u0);
+        let (input1, input_change) = if held {
+            (input0, [0.0; N])
+        } else {
+            (inputs_times(&u1), inputs_times(&du))
+        };
         let row = |i: usize, x: &[f64], input_part: f64| {
             let mut sum = input_part;
             for j in 0..N {
@@ -770,26 +784,26 @@ impl Friction {
         let (mut rates0, mut rates1) = ([0.0; N], [0.0; N]);
         for i in 0..N {
             if needed[i] {
-                rates0[i] = row(i, x0, input_term(i, &u0));
-                rates1[i] = row(i, x1, input_term(i, &u1));
+                rates0[i] = row(i, x0, input0[i]);
+                rates1[i] = row(i, x1, input1[i]);
             }
         }
-        let mut scaled_bound = [0.0; Direction::COUNT];
+        let mut scaled_bound = S::default();
         for (e, element) in self.present[..self.present_count].iter().enumerate() {
             let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
             let bound = if held && self.undriven[e] {
                 // Monotone between the ends; a damper's rate has only its own state's term.
                 let (f0, f1) = if damping > 0.0 {
-                    let (diagonal, input_part) = (a[k + MAX_STATES * k], input_term(k, &u0));
+                    let (diagonal, input_part) = (a[k + MAX_STATES * k], input0[k]);
                     let force = |x: f64| stiffness * x + damping * (diagonal * x + input_part);
                     (force(x0[k]), force(x1[k]))
                 } else {
                     (stiffness * x0[k], stiffness * x1[k])
                 };
-                f0.abs().max(f1.abs())
+                larger(f0.abs(), f1.abs())
             } else if damping > 0.0 {
                 // The damper's force rate needs the states' second derivatives.
-                let change = input_term(k, &du);
+                let change = input_change[k];
                 force_bound(
                     stiffness * x0[k] + damping * rates0[k],
                     stiffness * x1[k] + damping * rates1[k],
@@ -807,7 +821,7 @@ impl Friction {
                 )
             };
             let d = element.direction;
-            scaled_bound[d] = bound * self.check.scale[d];
+            scaled_bound.put(d, bound * self.check.scale[d]);
         }
         scaled_bound
     }
@@ -936,6 +950,47 @@ impl Friction {
     }
 }
 
+/// Where the sticking check puts each direction's force bound, as a share of its
+/// first-branch limit.
+trait ScaledBounds: Default {
+    fn put(&mut self, direction: usize, scaled: f64);
+}
+
+/// Every direction's bound (zero for a direction the model does not have).
+impl ScaledBounds for [f64; Direction::COUNT] {
+    fn put(&mut self, direction: usize, scaled: f64) {
+        self[direction] = scaled;
+    }
+}
+
+/// The groups' utilisation, `sum (bound / limit)^2` over their directions, summed as the
+/// bounds come: two numbers that stay in registers (an array of bounds written by
+/// direction and read back at once would wait on its stores).
+#[derive(Default)]
+struct GroupUtilisation {
+    planar: f64,
+    yaw: f64,
+}
+
+impl ScaledBounds for GroupUtilisation {
+    #[inline(always)]
+    fn put(&mut self, direction: usize, scaled: f64) {
+        if direction == Direction::Yaw as usize {
+            self.yaw += scaled * scaled;
+        } else {
+            self.planar += scaled * scaled;
+        }
+    }
+}
+
+impl GroupUtilisation {
+    /// [`Friction::within_limits`]: every group's first branches inside their limit (also
+    /// false for NaN, a zero limit).
+    fn within(&self) -> bool {
+        self.planar < 1.0 && self.yaw < 1.0
+    }
+}
+
 /// The longest step, in units of the fastest time constant, that the sticking check
 /// takes on its own ([`Friction::sticking_step`]).
 const MAX_STICKING_STEP: f64 = 0.5;
@@ -955,6 +1010,8 @@ pub struct LinearStep<'a> {
     pub end: &'a StateVector,
     pub inputs: &'a DrivingVector,
     pub input_rates: &'a DrivingVector,
+    /// Whether `input_rates` are all zero.
+    pub held: bool,
     pub h: f64,
 }
 
@@ -986,7 +1043,14 @@ fn decoupled(system: &StateSpace, k: usize) -> bool {
 /// could have touched its limit within the step goes to [`sliding`], which locates the
 /// event.
 pub fn force_bound(start: f64, end: f64, start_rate: f64, end_rate: f64, h: f64) -> f64 {
-    start.abs().max(end.abs()) + 0.25 * h * (start_rate.abs() + end_rate.abs())
+    larger(start.abs(), end.abs()) + 0.25 * h * (start_rate.abs() + end_rate.abs())
+}
+
+/// The larger of two magnitudes, or NaN if the first is NaN (one comparison, where
+/// `f64::max` also handles NaN in either place): a NaN bound is refused by the limits.
+#[inline(always)]
+fn larger(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
 }
 
 #[cfg(test)]
@@ -1080,7 +1144,7 @@ mod tests {
                     model.equations().system(&parameters, &at)
                 }));
                 let h: f64 = 1e-3;
-                let key = [7.0_f64.to_bits(), load.to_bits(), h.to_bits()];
+                let key = StepKey::new(7.0, load, h);
                 friction.prepare(key, &system, || Limits::at(&parameters, load));
                 assert!(!friction.check.rows_ready, "rows only from the second step");
                 friction.prepare(key, &system, || unreachable!("limits kept"));
@@ -1105,11 +1169,14 @@ mod tests {
                         end: &end,
                         inputs: &DrivingVector::new(0.05, -0.02, 0.01),
                         input_rates: &input_rates,
+                        held: input_rates == DrivingVector::zeros(),
                         h,
                     };
-                    let held = input_rates == DrivingVector::zeros();
-                    let rows = friction.together_bounds::<MAX_STATES>(&step, held);
-                    let direct = friction.together_bounds_direct::<MAX_STATES>(&step, held);
+                    let held = step.held;
+                    let rows: [f64; Direction::COUNT] =
+                        friction.together_bounds::<MAX_STATES, _>(&step, held);
+                    let direct: [f64; Direction::COUNT] =
+                        friction.together_bounds_direct::<MAX_STATES, _>(&step, held);
                     for d in 0..Direction::COUNT {
                         assert!(
                             (rows[d] - direct[d]).abs() <= 1e-12 * rows[d].abs().max(1e-300),

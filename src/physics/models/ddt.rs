@@ -37,17 +37,17 @@ impl TireLagModel for Ddt {
             YAW,
             &[(
                 YAW,
-                -at.lateral_relaxation_speed / p.get(Parameter::YawRelaxationLength),
+                -at.lateral_relaxation_speed() / p.get(Parameter::YawRelaxationLength),
             )],
             &[(DrivingInput::SteerRate, 1.0)],
         );
         b.rate(
             LATERAL,
             &[
-                (YAW, at.vx),
+                (YAW, at.vx()),
                 (
                     LATERAL,
-                    -at.lateral_relaxation_speed / p.lateral_relaxation_length(),
+                    -at.lateral_relaxation_speed() / p.lateral_relaxation_length(),
                 ),
             ],
             &[(DrivingInput::Vy, 1.0)],
@@ -59,7 +59,7 @@ impl TireLagModel for Ddt {
         b.output_rate(Output::Mz, YAW, -yaw_damping);
         b.output(Output::DeflPsi, &[(YAW, 1.0)], &[]);
 
-        longitudinal(p).write(&mut b, at.longitudinal_relaxation_speed);
+        longitudinal(p).write(&mut b, at.longitudinal_relaxation_speed());
         write_rolling_moment_from_fx(&mut b, p);
         write_common_outputs(&mut b, p, at);
         b.finish()

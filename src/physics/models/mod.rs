@@ -62,7 +62,7 @@ pub trait TireLagModel: Sync {
     fn state_names(&self) -> &'static [&'static str];
 
     /// The state-space system at an operating point. Relaxation rates are written as
-    /// `at.lateral_relaxation_speed / sigma` (or longitudinal), so that the loaded lengths
+    /// `at.lateral_relaxation_speed() / sigma` (or longitudinal), so that the loaded lengths
     /// follow; the system must stay affine in the operating point's coordinates.
     fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace;
 
@@ -239,12 +239,12 @@ fn write_common_outputs(b: &mut SystemBuilder, p: &Parameters, at: &OperatingPoi
     b.output_from(
         Output::AlphaT,
         Output::DeflY,
-        -at.inverse_lateral_factor / p.lateral_relaxation_length(),
+        -at.inverse_lateral_factor() / p.lateral_relaxation_length(),
     );
     b.output_from(
         Output::KappaT,
         Output::DeflX,
-        -at.inverse_longitudinal_factor / p.longitudinal_relaxation_length(),
+        -at.inverse_longitudinal_factor() / p.longitudinal_relaxation_length(),
     );
 }
 

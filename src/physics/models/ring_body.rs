@@ -49,12 +49,12 @@ impl TireLagModel for RingBody {
     fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(6);
         let contact = lateral(p);
-        contact.write(&mut b, at.lateral_relaxation_speed);
+        contact.write(&mut b, at.lateral_relaxation_speed());
         contact.carcass_force(&mut b, Output::Fy, 1.0);
         contact.deflection(&mut b, Output::DeflY);
 
         let ring = circumferential(p);
-        ring.write(&mut b, at.longitudinal_relaxation_speed);
+        ring.write(&mut b, at.longitudinal_relaxation_speed());
         b.output(Output::Fx, &[(ring.tread, -ring.tread_stiffness)], &[]);
         ring.carcass_force(&mut b, Output::My, -p.get(Parameter::RollingRadius));
         ring.deflection(&mut b, Output::DeflX);

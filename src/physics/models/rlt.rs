@@ -34,8 +34,8 @@ impl TireLagModel for Rlt {
 
     fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(2);
-        lateral(p).write(&mut b, at.lateral_relaxation_speed);
-        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, at.longitudinal_relaxation_speed);
+        lateral(p).write(&mut b, at.lateral_relaxation_speed());
+        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, at.longitudinal_relaxation_speed());
         write_rolling_moment_from_fx(&mut b, p);
         write_common_outputs(&mut b, p, at);
         b.finish()

@@ -34,10 +34,10 @@ impl TireLagModel for SecondOrder {
     fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace {
         let mut b = SystemBuilder::new(4);
         let contact = lateral(p);
-        contact.write(&mut b, at.lateral_relaxation_speed);
+        contact.write(&mut b, at.lateral_relaxation_speed());
         contact.carcass_force(&mut b, Output::Fy, 1.0);
         contact.deflection(&mut b, Output::DeflY);
-        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, at.longitudinal_relaxation_speed);
+        Relaxation::longitudinal(p, LONGITUDINAL, 0.0).write(&mut b, at.longitudinal_relaxation_speed());
         write_rolling_moment_from_fx(&mut b, p);
         write_common_outputs(&mut b, p, at);
         b.finish()

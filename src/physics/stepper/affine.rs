@@ -12,20 +12,15 @@ use crate::physics::state_space::{MAX_STATES, StateSpace};
 /// stiffnesses stay), so a relaxation rate `rho/(sigma factor)` is a nominal length
 /// divided into `rho/factor`. With these five coordinates every model's matrices are
 /// affine (no product of two, no division by any).
+///
+/// Stored as the array of coordinates that [`AffineSystem::evaluate`] indexes, so that a
+/// point just made is read one coordinate at a time, never copied (a wide load of values
+/// just stored one by one waits for them to reach the cache).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OperatingPoint {
-    /// Longitudinal speed `vx`, m/s.
-    pub vx: f64,
-    /// `rho / lateral length factor`, m/s: divided by a nominal lateral relaxation length
-    /// it is that lag's rate.
-    pub lateral_relaxation_speed: f64,
-    /// `rho / longitudinal length factor`, m/s.
-    pub longitudinal_relaxation_speed: f64,
-    /// `1 / lateral length factor`: turns a nominal lateral length into the loaded one's
-    /// inverse (for alphaT).
-    pub inverse_lateral_factor: f64,
-    /// `1 / longitudinal length factor` (for kappaT).
-    pub inverse_longitudinal_factor: f64,
+    /// In the order of the accessors below; padded to a power of two so that a masked
+    /// index needs no bounds check.
+    coordinates: [f64; 8],
 }
 
 impl OperatingPoint {
@@ -37,33 +32,56 @@ impl OperatingPoint {
     /// (`inverse` = 1 / length factors).
     pub fn new(vx: f64, inverse: InverseLengthFactors) -> Self {
         let rho = vx.abs();
-        Self {
+        Self::from_coordinates([
             vx,
-            lateral_relaxation_speed: rho * inverse.lateral,
-            longitudinal_relaxation_speed: rho * inverse.longitudinal,
-            inverse_lateral_factor: inverse.lateral,
-            inverse_longitudinal_factor: inverse.longitudinal,
-        }
+            rho * inverse.lateral,
+            rho * inverse.longitudinal,
+            inverse.lateral,
+            inverse.longitudinal,
+        ])
     }
 
-    pub const fn coordinates(&self) -> [f64; Self::COORDINATES] {
-        [
-            self.vx,
-            self.lateral_relaxation_speed,
-            self.longitudinal_relaxation_speed,
-            self.inverse_lateral_factor,
-            self.inverse_longitudinal_factor,
-        ]
+    /// Longitudinal speed `vx`, m/s.
+    pub const fn vx(&self) -> f64 {
+        self.coordinates[0]
+    }
+
+    /// `rho / lateral length factor`, m/s: divided by a nominal lateral relaxation length
+    /// it is that lag's rate.
+    pub const fn lateral_relaxation_speed(&self) -> f64 {
+        self.coordinates[1]
+    }
+
+    /// `rho / longitudinal length factor`, m/s.
+    pub const fn longitudinal_relaxation_speed(&self) -> f64 {
+        self.coordinates[2]
+    }
+
+    /// `1 / lateral length factor`: turns a nominal lateral length into the loaded one's
+    /// inverse (for alphaT).
+    pub const fn inverse_lateral_factor(&self) -> f64 {
+        self.coordinates[3]
+    }
+
+    /// `1 / longitudinal length factor` (for kappaT).
+    pub const fn inverse_longitudinal_factor(&self) -> f64 {
+        self.coordinates[4]
+    }
+
+    pub fn coordinates(&self) -> [f64; Self::COORDINATES] {
+        std::array::from_fn(|k| self.coordinates[k])
     }
 
     pub const fn from_coordinates(c: [f64; Self::COORDINATES]) -> Self {
         Self {
-            vx: c[0],
-            lateral_relaxation_speed: c[1],
-            longitudinal_relaxation_speed: c[2],
-            inverse_lateral_factor: c[3],
-            inverse_longitudinal_factor: c[4],
+            coordinates: [c[0], c[1], c[2], c[3], c[4], 0.0, 0.0, 0.0],
         }
+    }
+
+    /// Coordinate `k & 7` (zero past the fifth).
+    #[inline]
+    fn coordinate(&self, k: u8) -> f64 {
+        self.coordinates[k as usize & 7]
     }
 
     fn unit(coordinate: usize) -> Self {
@@ -75,7 +93,7 @@ impl OperatingPoint {
     /// Whether both are the same point to the bit, for caches. (Compared coordinate by
     /// coordinate: an array comparison would become a memcmp call on the hot path.)
     pub fn same_as(&self, other: &OperatingPoint) -> bool {
-        let (a, b) = (self.coordinates(), other.coordinates());
+        let (a, b) = (&self.coordinates, &other.coordinates);
         (0..Self::COORDINATES).all(|k| a[k].to_bits() == b[k].to_bits())
     }
 }
@@ -111,10 +129,12 @@ const MAX_VARYING: usize = 64;
 #[derive(Clone, Debug, PartialEq)]
 pub struct AffineSystem {
     at_rest: StateSpace,
-    /// Ordered by matrix (A, B, C, D), then entry; `matrix_ends[m]` is one past the last
-    /// term of matrix m.
+    /// Ordered by matrix (A, B, C, D), then the terms that set an entry before those that
+    /// add to one, then entry; `setting_ends[m]` is one past the last setting term of
+    /// matrix m, and `matrix_ends[m]` one past its last term.
     varying: [VaryingTerm; MAX_VARYING],
     varying_count: usize,
+    setting_ends: [usize; 4],
     matrix_ends: [usize; 4],
 }
 
@@ -137,14 +157,16 @@ fn column_major_index(s: &StateSpace, matrix: Matrix, row: usize, column: usize)
     column * rows + row
 }
 
-/// Writes each term into one matrix's storage. The coordinates come padded to a power of
-/// two, so that a masked index needs no bounds check.
+/// Writes one matrix's varying entries into its storage: the setting terms
+/// (`terms[..setting]`), then the terms that add to an entry already set.
 #[inline]
-fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], q: &[f64; 8]) {
-    for term in terms {
-        let index = term.index as usize;
-        let base = if term.first { term.at_rest } else { storage[index] };
-        storage[index] = base + term.slope * q[term.coordinate as usize & 7];
+fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], setting: usize, point: &OperatingPoint) {
+    let (firsts, followers) = terms.split_at(setting);
+    for term in firsts {
+        storage[term.index as usize] = term.at_rest + term.slope * point.coordinate(term.coordinate);
+    }
+    for term in followers {
+        storage[term.index as usize] += term.slope * point.coordinate(term.coordinate);
     }
 }
 
@@ -169,6 +191,7 @@ impl AffineSystem {
             at_rest: at_rest.clone(),
             varying: [placeholder; MAX_VARYING],
             varying_count: 0,
+            setting_ends: [0; 4],
             matrix_ends: [0; 4],
         };
         let mut unit_entries = units.each_ref().map(entries);
@@ -232,15 +255,17 @@ impl AffineSystem {
     /// Orders the entries by matrix and records where each matrix's run ends.
     fn index_by_matrix(&mut self) {
         let count = self.varying_count;
-        // Stable: the terms of one entry keep their order, the setting one first.
-        self.varying[..count].sort_by_key(|t| (t.matrix, t.index));
+        // Stable: the terms that add to one entry keep their order.
+        self.varying[..count].sort_by_key(|t| (t.matrix, !t.first, t.index));
         for (m, matrix) in [Matrix::A, Matrix::B, Matrix::C, Matrix::D]
             .into_iter()
             .enumerate()
         {
-            self.matrix_ends[m] = self.varying[..count]
+            let terms = &self.varying[..count];
+            self.matrix_ends[m] = terms.iter().filter(|e| e.matrix <= matrix).count();
+            self.setting_ends[m] = terms
                 .iter()
-                .filter(|e| e.matrix <= matrix)
+                .filter(|e| e.matrix < matrix || (e.matrix == matrix && e.first))
                 .count();
         }
     }
@@ -275,14 +300,23 @@ impl AffineSystem {
     /// Writes the system at `point` into `system`, which must hold this system's entries
     /// at some operating point (a copy of [`AffineSystem::at_rest`] or an earlier result):
     /// only the varying entries are rewritten.
-    pub fn evaluate(&self, point: OperatingPoint, system: &mut StateSpace) {
-        let mut q = [0.0; 8];
-        q[..OperatingPoint::COORDINATES].copy_from_slice(&point.coordinates());
-        let [a, b, c, d] = self.matrix_ends;
-        write_terms(system.a.as_mut_slice(), &self.varying[..a], &q);
-        write_terms(system.b.as_mut_slice(), &self.varying[a..b], &q);
-        write_terms(system.c.as_mut_slice(), &self.varying[b..c], &q);
-        write_terms(system.d.as_mut_slice(), &self.varying[c..d], &q);
+    pub fn evaluate(&self, point: &OperatingPoint, system: &mut StateSpace) {
+        self.evaluate_dynamics(point, system);
+        self.evaluate_outputs(point, system);
+    }
+
+    /// The state and input matrices of [`AffineSystem::evaluate`]: all a step map needs.
+    pub fn evaluate_dynamics(&self, point: &OperatingPoint, system: &mut StateSpace) {
+        let ([a, b, ..], [set_a, set_b, ..]) = (self.matrix_ends, self.setting_ends);
+        write_terms(system.a.as_mut_slice(), &self.varying[..a], set_a, point);
+        write_terms(system.b.as_mut_slice(), &self.varying[a..b], set_b - a, point);
+    }
+
+    /// The output and feedthrough matrices of [`AffineSystem::evaluate`].
+    pub fn evaluate_outputs(&self, point: &OperatingPoint, system: &mut StateSpace) {
+        let ([_, b, c, d], [_, _, set_c, set_d]) = (self.matrix_ends, self.setting_ends);
+        write_terms(system.c.as_mut_slice(), &self.varying[b..c], set_c - b, point);
+        write_terms(system.d.as_mut_slice(), &self.varying[c..d], set_d - c, point);
     }
 
     /// Typical magnitude of each state-matrix entry (at rest plus 10 of each coordinate),

@@ -34,6 +34,35 @@ use super::state_space::{DrivingVector, InputMatrix, MAX_STATES, StateMatrix, St
 pub use affine::{AffineSystem, OperatingPoint};
 pub use blocks::{Block, Blocks};
 
+/// What a step map is made for: the bits of vx, Fz (at mid-step) and the step size. For
+/// one parameter set they decide the operating point and the contact mode.
+///
+/// Compared word by word in registers: an array comparison of a key just built goes
+/// through memory, and a wide load of values just stored one by one stalls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepKey([u64; 3]);
+
+impl StepKey {
+    /// No step map: a step size of zero is never taken.
+    pub const NONE: StepKey = StepKey([0; 3]);
+
+    pub fn new(vx: f64, load: f64, h: f64) -> Self {
+        StepKey([vx.to_bits(), load.to_bits(), h.to_bits()])
+    }
+
+    #[inline]
+    pub fn same_as(&self, other: &StepKey) -> bool {
+        let (a, b) = (&self.0, &other.0);
+        (a[0] ^ b[0]) | (a[1] ^ b[1]) | (a[2] ^ b[2]) == 0
+    }
+}
+
+impl Default for StepKey {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
 /// The exact one-step map for inputs `u(t) = u0 + t du`, t from 0 to h:
 /// `x(h) = transition x(0) + hold u0 + ramp du`.
 #[derive(Clone, Debug, PartialEq)]
@@ -52,7 +81,9 @@ impl Default for StepMap {
 }
 
 impl StepMap {
-    pub fn advance(&self, x: &StateVector, u0: &DrivingVector, du: &DrivingVector) -> StateVector {
+    /// The states after the step from `x`, with the driving inputs `u0` at its start and
+    /// their rates `du` (`None`: held).
+    pub fn advance(&self, x: &StateVector, u0: &DrivingVector, du: Option<&DrivingVector>) -> StateVector {
         match self.states {
             1 => self.advance_sized::<1>(x, u0, du),
             2 => self.advance_sized::<2>(x, u0, du),
@@ -69,16 +100,15 @@ impl StepMap {
         &self,
         x: &StateVector,
         u0: &DrivingVector,
-        du: &DrivingVector,
+        du: Option<&DrivingVector>,
     ) -> StateVector {
         let mut next = StateVector::zeros();
-        let ramping = *du != DrivingVector::zeros();
         for i in 0..N {
             let mut value = self.hold[(i, 0)] * u0[0] + self.hold[(i, 1)] * u0[1] + self.hold[(i, 2)] * u0[2];
             for j in 0..N {
                 value += self.transition[(i, j)] * x[j];
             }
-            if ramping {
+            if let Some(du) = du {
                 value += self.ramp[(i, 0)] * du[0] + self.ramp[(i, 1)] * du[1] + self.ramp[(i, 2)] * du[2];
             }
             next[i] = value;
@@ -264,7 +294,7 @@ impl ContactSystem {
     #[inline]
     pub fn at(&mut self, point: OperatingPoint) -> &StateSpace {
         if !point.same_as(&self.current_point) {
-            self.affine.evaluate(point, &mut self.current);
+            self.affine.evaluate(&point, &mut self.current);
             self.current_point = point;
             self.current_at_map_point = false;
         }
@@ -273,8 +303,16 @@ impl ContactSystem {
 
     /// Makes the exact step map at `point` over `h` seconds.
     pub fn make_step_map(&mut self, point: OperatingPoint, h: f64) -> &StepMap {
-        self.at(point);
-        self.map.make_blocks(&self.current, &self.blocks, h);
+        if point.same_as(&self.current_point) {
+            self.map.make_blocks(&self.current, &self.blocks, h);
+        } else {
+            // The output entries after the map: they do not feed it, so they are written
+            // while its series (chains of dependent multiplications) are under way.
+            self.affine.evaluate_dynamics(&point, &mut self.current);
+            self.map.make_blocks(&self.current, &self.blocks, h);
+            self.affine.evaluate_outputs(&point, &mut self.current);
+            self.current_point = point;
+        }
         self.map_point = point;
         self.current_at_map_point = true;
         &self.map
@@ -285,7 +323,7 @@ impl ContactSystem {
     #[inline]
     pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap, &Blocks) {
         if !self.current_at_map_point {
-            self.affine.evaluate(self.map_point, &mut self.current);
+            self.affine.evaluate(&self.map_point, &mut self.current);
             self.current_point = self.map_point;
             self.current_at_map_point = true;
         }

@@ -17,11 +17,12 @@ use nalgebra::SMatrix;
 const SCALED_NORM: f64 = 0.5;
 /// Highest Taylor degree; at 1-norm 0.5 the remainder is below 2^-53 from degree 13.
 const MAX_DEGREE: usize = 16;
-/// 1/k! for k = 0..=MAX_DEGREE + 2.
-const INVERSE_FACTORIAL: [f64; MAX_DEGREE + 3] = inverse_factorials();
+/// 1/k! for k = 0..=MAX_DEGREE + 3 (a series split into its even and odd parts runs to
+/// an odd degree, up to MAX_DEGREE + 1).
+const INVERSE_FACTORIAL: [f64; MAX_DEGREE + 4] = inverse_factorials();
 
-const fn inverse_factorials() -> [f64; MAX_DEGREE + 3] {
-    let mut table = [1.0; MAX_DEGREE + 3];
+const fn inverse_factorials() -> [f64; MAX_DEGREE + 4] {
+    let mut table = [1.0; MAX_DEGREE + 4];
     let mut k = 1;
     while k < table.len() {
         table[k] = table[k - 1] / k as f64;
@@ -109,11 +110,16 @@ fn one_norm<const N: usize>(x: &SMatrix<f64, N, N>) -> f64 {
 #[inline]
 pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
     if z.abs() <= SCALED_NORM {
-        let degree = degree_for(z.abs());
-        let mut phi2 = INVERSE_FACTORIAL[degree + 2];
-        for j in (0..degree).rev() {
-            phi2 = z * phi2 + INVERSE_FACTORIAL[j + 2];
+        // phi2(z) = E(z^2) + z O(z^2), its even and odd parts: two Horner chains of half
+        // the length side by side, since each step of a chain waits on the last.
+        let top = degree_for(z.abs()) | 1;
+        let y = z * z;
+        let (mut even, mut odd) = (INVERSE_FACTORIAL[top + 1], INVERSE_FACTORIAL[top + 2]);
+        for i in (0..top / 2).rev() {
+            even = y * even + INVERSE_FACTORIAL[2 * i + 2];
+            odd = y * odd + INVERSE_FACTORIAL[2 * i + 3];
         }
+        let phi2 = even + z * odd;
         let phi1 = 1.0 + z * phi2;
         (1.0 + z * phi1, phi1, phi2)
     } else if z.is_finite() {
@@ -136,17 +142,27 @@ pub fn lower_triangular_phi_functions(z1: f64, z2: f64, c: f64) -> PhiFunctions<
     };
     let large = if z1.abs() >= z2.abs() { z1 } else { z2 };
     if large.abs() <= SCALED_NORM {
-        // The Taylor series of phi2 by Horner's rule on the three entries; the corner of
-        // X^n is c h_(n-1)(z1, z2), |h_(n-1)| <= n |large|^(n-1), so two terms past the
-        // diagonal's degree cover it, whatever c is.
-        let degree = (degree_for(large.abs()) + 2).min(MAX_DEGREE);
-        let (mut p1, mut corner, mut p2) =
-            (INVERSE_FACTORIAL[degree + 2], 0.0, INVERSE_FACTORIAL[degree + 2]);
-        for j in (0..degree).rev() {
-            corner = c * p1 + z2 * corner;
-            p1 = z1 * p1 + INVERSE_FACTORIAL[j + 2];
-            p2 = z2 * p2 + INVERSE_FACTORIAL[j + 2];
+        // The Taylor series of phi2 on the three entries; the corner of X^n is
+        // c h_(n-1)(z1, z2), |h_(n-1)| <= n |large|^(n-1), so two terms past the diagonal's
+        // degree cover it, whatever c is. Split as E(Y) + X O(Y) with Y = X^2, its even and
+        // odd parts: two Horner chains of half the length side by side (as for a scalar).
+        let top = (degree_for(large.abs()) + 2).min(MAX_DEGREE) | 1;
+        // Y = [[z1^2, 0], [c (z1 + z2), z2^2]]; a chain step is T <- Y T + a I, whose
+        // corner is yc t1 + y2 tc.
+        let (y1, y2, yc) = (z1 * z1, z2 * z2, c * (z1 + z2));
+        let (first_even, first_odd) = (INVERSE_FACTORIAL[top + 1], INVERSE_FACTORIAL[top + 2]);
+        let (mut e1, mut e2, mut ec) = (first_even, first_even, 0.0);
+        let (mut o1, mut o2, mut oc) = (first_odd, first_odd, 0.0);
+        for i in (0..top / 2).rev() {
+            let (a_even, a_odd) = (INVERSE_FACTORIAL[2 * i + 2], INVERSE_FACTORIAL[2 * i + 3]);
+            ec = yc * e1 + y2 * ec;
+            e1 = y1 * e1 + a_even;
+            e2 = y2 * e2 + a_even;
+            oc = yc * o1 + y2 * oc;
+            o1 = y1 * o1 + a_odd;
+            o2 = y2 * o2 + a_odd;
         }
+        let (p1, p2, corner) = (e1 + z1 * o1, e2 + z2 * o2, ec + (c * o1 + z2 * oc));
         let phi2 = matrix(p1, p2, corner);
         let phi1 = matrix(1.0 + z1 * p1, 1.0 + z2 * p2, c * p1 + z2 * corner);
         let exp = matrix(
@@ -175,7 +191,8 @@ pub fn lower_triangular_phi_functions(z1: f64, z2: f64, c: f64) -> PhiFunctions<
 }
 
 /// Smallest Taylor degree whose remainder bound theta^(m+1)/(m+1)! is below the unit
-/// roundoff.
+/// roundoff. (A scan: its branches are predicted, so the series need not wait for the
+/// degree, as it would for a table lookup.)
 fn degree_for(theta: f64) -> usize {
     DEGREE_THRESHOLDS
         .iter()
