@@ -104,24 +104,87 @@ fn one_norm<const N: usize>(x: &SMatrix<f64, N, N>) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// `(e^z, phi1(z), phi2(z))` of a scalar: the same series as [`phi_functions`] where
-/// |z| is small, the closed forms `(e^z - 1)/z` and `(e^z - 1 - z)/z^2` (with `expm1`,
-/// which loses at most two bits there) where it is not.
+/// `sum c[j] z^j` over the first eight coefficients by Estrin's scheme: pairs
+/// `c[j] + c[j+1] z`, then pairs of pairs with `z^2`, then with `z^4`. A tree three
+/// operations deep, where Horner's rule is a chain of seven, each waiting on the last.
+#[inline(always)]
+fn estrin8(c: &[f64], z: f64, z2: f64, z4: f64) -> f64 {
+    let pair = |j: usize| c[j] + c[j + 1] * z;
+    let (low, high) = (pair(0) + pair(2) * z2, pair(4) + pair(6) * z2);
+    low + high * z4
+}
+
+/// [`estrin8`] over the first sixteen coefficients.
+#[inline(always)]
+fn estrin16(c: &[f64], z: f64, z2: f64, z4: f64, z8: f64) -> f64 {
+    estrin8(&c[..8], z, z2, z4) + estrin8(&c[8..16], z, z2, z4) * z8
+}
+
+/// A lower-triangular 2x2 matrix `[[first, 0], [corner, second]]`, as the triangular pair's
+/// series needs it.
+#[derive(Clone, Copy)]
+struct LowerTriangular {
+    first: f64,
+    second: f64,
+    corner: f64,
+}
+
+impl LowerTriangular {
+    fn times(self, other: Self) -> Self {
+        Self {
+            first: self.first * other.first,
+            second: self.second * other.second,
+            corner: self.corner * other.first + self.second * other.corner,
+        }
+    }
+
+    fn plus(self, other: Self) -> Self {
+        Self {
+            first: self.first + other.first,
+            second: self.second + other.second,
+            corner: self.corner + other.corner,
+        }
+    }
+}
+
+/// [`estrin8`] of a lower-triangular matrix `x`, with its square and fourth power.
+#[inline(always)]
+fn estrin8_lower(c: &[f64], x: LowerTriangular, x2: LowerTriangular, x4: LowerTriangular) -> LowerTriangular {
+    let pair = |j: usize| LowerTriangular {
+        first: c[j] + c[j + 1] * x.first,
+        second: c[j] + c[j + 1] * x.second,
+        corner: c[j + 1] * x.corner,
+    };
+    let low = pair(0).plus(x2.times(pair(2)));
+    let high = pair(4).plus(x2.times(pair(6)));
+    low.plus(x4.times(high))
+}
+
+/// `(e^z, phi1(z), phi2(z))` of a scalar: the Taylor series where |z| is small, each to
+/// the degree that leaves a remainder below the unit roundoff (7, or 15 up to
+/// [`SCALED_NORM`]), summed by Estrin's scheme, the three side by side; the closed forms
+/// `(e^z - 1)/z` and `(e^z - 1 - z)/z^2` (with `expm1`, which loses at most two bits
+/// there) where it is not.
 #[inline]
 pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
-    if z.abs() <= SCALED_NORM {
-        // phi2(z) = E(z^2) + z O(z^2), its even and odd parts: two Horner chains of half
-        // the length side by side, since each step of a chain waits on the last.
-        let top = degree_for(z.abs()) | 1;
-        let y = z * z;
-        let (mut even, mut odd) = (INVERSE_FACTORIAL[top + 1], INVERSE_FACTORIAL[top + 2]);
-        for i in (0..top / 2).rev() {
-            even = y * even + INVERSE_FACTORIAL[2 * i + 2];
-            odd = y * odd + INVERSE_FACTORIAL[2 * i + 3];
-        }
-        let phi2 = even + z * odd;
-        let phi1 = 1.0 + z * phi2;
-        (1.0 + z * phi1, phi1, phi2)
+    const EXP: &[f64] = &INVERSE_FACTORIAL;
+    let (phi1_series, phi2_series) = (&INVERSE_FACTORIAL[1..], &INVERSE_FACTORIAL[2..]);
+    if z.abs() <= DEGREE_THRESHOLDS[7] {
+        let (z2, z4) = (z * z, z * z * (z * z));
+        (
+            estrin8(EXP, z, z2, z4),
+            estrin8(phi1_series, z, z2, z4),
+            estrin8(phi2_series, z, z2, z4),
+        )
+    } else if z.abs() <= SCALED_NORM {
+        let z2 = z * z;
+        let z4 = z2 * z2;
+        let z8 = z4 * z4;
+        (
+            estrin16(EXP, z, z2, z4, z8),
+            estrin16(phi1_series, z, z2, z4, z8),
+            estrin16(phi2_series, z, z2, z4, z8),
+        )
     } else if z.is_finite() {
         let expm1 = z.exp_m1();
         (z.exp(), expm1 / z, (expm1 - z) / (z * z))
@@ -144,31 +207,31 @@ pub fn lower_triangular_phi_functions(z1: f64, z2: f64, c: f64) -> PhiFunctions<
     if large.abs() <= SCALED_NORM {
         // The Taylor series of phi2 on the three entries; the corner of X^n is
         // c h_(n-1)(z1, z2), |h_(n-1)| <= n |large|^(n-1), so two terms past the diagonal's
-        // degree cover it, whatever c is. Split as E(Y) + X O(Y) with Y = X^2, its even and
-        // odd parts: two Horner chains of half the length side by side (as for a scalar).
-        let top = (degree_for(large.abs()) + 2).min(MAX_DEGREE) | 1;
-        // Y = [[z1^2, 0], [c (z1 + z2), z2^2]]; a chain step is T <- Y T + a I, whose
-        // corner is yc t1 + y2 tc.
-        let (y1, y2, yc) = (z1 * z1, z2 * z2, c * (z1 + z2));
-        let (first_even, first_odd) = (INVERSE_FACTORIAL[top + 1], INVERSE_FACTORIAL[top + 2]);
-        let (mut e1, mut e2, mut ec) = (first_even, first_even, 0.0);
-        let (mut o1, mut o2, mut oc) = (first_odd, first_odd, 0.0);
-        for i in (0..top / 2).rev() {
-            let (a_even, a_odd) = (INVERSE_FACTORIAL[2 * i + 2], INVERSE_FACTORIAL[2 * i + 3]);
-            ec = yc * e1 + y2 * ec;
-            e1 = y1 * e1 + a_even;
-            e2 = y2 * e2 + a_even;
-            oc = yc * o1 + y2 * oc;
-            o1 = y1 * o1 + a_odd;
-            o2 = y2 * o2 + a_odd;
-        }
-        let (p1, p2, corner) = (e1 + z1 * o1, e2 + z2 * o2, ec + (c * o1 + z2 * oc));
+        // degree cover it, whatever c is: to degree 7 or 15 (enough up to SCALED_NORM),
+        // summed by Estrin's scheme, as for a scalar.
+        let x = LowerTriangular {
+            first: z1,
+            second: z2,
+            corner: c,
+        };
+        let x2 = x.times(x);
+        let x4 = x2.times(x2);
+        let series = &INVERSE_FACTORIAL[2..];
+        let phi2 = if degree_for(large.abs()) + 2 <= 7 {
+            estrin8_lower(series, x, x2, x4)
+        } else {
+            let high = estrin8_lower(&series[8..], x, x2, x4);
+            estrin8_lower(series, x, x2, x4).plus(x4.times(x4).times(high))
+        };
+        let (p1, p2, corner) = (phi2.first, phi2.second, phi2.corner);
+        let (y1, y2, yc) = (x2.first, x2.second, x2.corner);
+        // phi1 = I + X phi2 and e^X = I + X + X^2 phi2, side by side.
         let phi2 = matrix(p1, p2, corner);
         let phi1 = matrix(1.0 + z1 * p1, 1.0 + z2 * p2, c * p1 + z2 * corner);
         let exp = matrix(
-            1.0 + z1 * phi1[(0, 0)],
-            1.0 + z2 * phi1[(1, 1)],
-            c * phi1[(0, 0)] + z2 * phi1[(1, 0)],
+            (1.0 + z1) + y1 * p1,
+            (1.0 + z2) + y2 * p2,
+            c + (yc * p1 + y2 * corner),
         );
         return PhiFunctions { exp, phi1, phi2 };
     }
