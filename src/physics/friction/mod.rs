@@ -747,26 +747,26 @@ impl Friction {
             h,
             ..
         } = *step;
-        // Column-major storage: entry (i, j) at i + MAX_STATES j.
-        let (a, b) = (system.a.as_slice(), system.b.as_slice());
-        let (x0, x1) = (&start.as_slice()[..N], &end.as_slice()[..N]);
-        let u = step.inputs;
-        let input_part = |k: usize| b[k] * u[0] + b[k + MAX_STATES] * u[1] + b[k + 2 * MAX_STATES] * u[2];
+        let (a, b, u) = (&system.a, &system.b, step.inputs);
+        // B u, and each state's largest magnitude at the ends, for every state at once.
+        let inputs: [f64; N] =
+            std::array::from_fn(|i| b[(i, 0)] * u[0] + b[(i, 1)] * u[1] + b[(i, 2)] * u[2]);
+        let extent: [f64; N] = std::array::from_fn(|j| larger(start[j].abs(), end[j].abs()));
         let mut bounds = S::default();
         for e in 0..self.present_count.min(Direction::COUNT) {
             let element = &self.present[e];
-            let (k, stiffness, damping) = (element.state, element.stiffness, element.damping);
-            let diagonal = a[k + MAX_STATES * k];
+            let (k, stiffness, damping) = (element.state.min(N - 1), element.stiffness, element.damping);
+            let diagonal = a[(k, k)];
             let bound = if self.undriven[e] {
-                let input = input_part(k);
-                let force = |x: f64| stiffness * x + damping * (diagonal * x + input);
-                larger(force(x0[k]).abs(), force(x1[k]).abs())
+                let force = |x: f64| stiffness * x + damping * (diagonal * x + inputs[k]);
+                larger(force(start[k]).abs(), force(end[k]).abs())
             } else if diagonal <= 0.0 {
-                let mut drive = input_part(k).abs();
-                for j in (0..N).filter(|&j| j != k) {
-                    drive += a[k + MAX_STATES * j].abs() * larger(x0[j].abs(), x1[j].abs());
+                let mut drive = inputs[k].abs();
+                for (j, &extent) in extent.iter().enumerate() {
+                    let coupling = if j == k { 0.0 } else { a[(k, j)].abs() };
+                    drive += coupling * extent;
                 }
-                let state = x0[k].abs() + drive * h;
+                let state = start[k].abs() + drive * h;
                 (stiffness + damping * diagonal).abs() * state + damping * drive
             } else {
                 f64::INFINITY
