@@ -13,8 +13,10 @@
 //!    balanced once with power-of-two scalings.
 //! 3. **Phi-functions per block** ([`phi`]). For a step of length h with inputs
 //!    `u0 + t du`, each block's `e^(hA)`, `h phi1(hA) B` and `h^2 phi2(hA) B` come from
-//!    one Taylor series with scaling and squaring on fixed-size matrices; no division by
-//!    the speed anywhere. The blocks together give the [`StepMap`]
+//!    closed forms (lags, triangular pairs) or one Taylor series with scaling and
+//!    squaring on fixed-size matrices; no division by the speed anywhere. The map's
+//!    entries are made before the output matrix's (which do not feed it). The blocks
+//!    together give the [`StepMap`]
 //!    `x(h) = transition x(0) + hold u0 + ramp du`, exact to rounding for any h.
 //! 4. **Reuse.** The step map is kept while the operating point, contact mode and step
 //!    size are unchanged, with the system at its point, so a step at constant speed is

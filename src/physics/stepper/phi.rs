@@ -10,6 +10,11 @@
 //! phi1 = I + X phi2 and e^X = I + X phi1, then square back s times with
 //! `phi2(2X) = (e^X phi2 + phi1 + phi2)/4`, `phi1(2X) = (e^X + I) phi1/2`, `e^(2X) = (e^X)^2`.
 //! Callers balance X first (`blocks`), so that the norm reflects the dynamics, not units.
+//!
+//! A lag (1x1) and a triangular pair (DDT's yaw and lateral lags) have their own forms:
+//! where the arguments are small, the same Taylor series summed by Estrin's scheme (a tree
+//! a few operations deep instead of a chain as long as the degree: a step waits on these
+//! series, not on their arithmetic); elsewhere closed forms.
 
 use nalgebra::SMatrix;
 
