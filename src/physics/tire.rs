@@ -104,9 +104,7 @@ pub struct Tire {
     /// What the step map of the mode last stepped in was made for ([`StepKey::NONE`]:
     /// not valid).
     step_made_for: StepKey,
-    /// The outputs at the current states and inputs, while `outputs_current`.
-    outputs: OutputVector,
-    outputs_current: bool,
+    outputs: Option<OutputVector>,
     /// The friction sliders (`None` for the Unlimited law).
     friction: Option<Friction>,
 }
@@ -143,8 +141,7 @@ impl Tire {
             driving_rates: DrivingVector::zeros(),
             ramping: false,
             step_made_for: StepKey::NONE,
-            outputs: OutputVector::zeros(),
-            outputs_current: false,
+            outputs: None,
             friction,
         })
     }
@@ -164,7 +161,7 @@ impl Tire {
             return Err(format!("branch offset {bad} is not finite"));
         }
         friction.set_state(*sliders);
-        self.outputs_current = false;
+        self.outputs = None;
         Ok(())
     }
 
@@ -202,7 +199,7 @@ impl Tire {
         if let Some(friction) = self.friction.as_mut() {
             friction.reset();
         }
-        self.outputs_current = false;
+        self.outputs = None;
         Ok(())
     }
 
@@ -225,7 +222,7 @@ impl Tire {
         {
             self.inputs = inputs;
             self.driving = Self::driving_inputs(&inputs);
-            self.outputs_current = false;
+            self.outputs = None;
         }
     }
 
@@ -234,7 +231,7 @@ impl Tire {
         if self.inputs[input as usize].to_bits() != value.to_bits() {
             self.inputs[input as usize] = value;
             self.driving = Self::driving_inputs(&self.inputs);
-            self.outputs_current = false;
+            self.outputs = None;
         }
     }
 
@@ -306,7 +303,7 @@ impl Tire {
 
     /// Outputs for the current states and inputs, computed once per change of either.
     pub fn outputs_ref(&mut self) -> &OutputVector {
-        if !self.outputs_current {
+        if self.outputs.is_none() {
             let states = self.states;
             let outputs = match self.friction.as_ref().map(|f| *f.state()) {
                 Some(sliders) => self.outputs_with_limits(&states, &sliders, &self.inputs.clone()),
@@ -315,10 +312,9 @@ impl Tire {
                     self.current_system().outputs(&states, &u)
                 }
             };
-            self.outputs = outputs;
-            self.outputs_current = true;
+            self.outputs = Some(outputs);
         }
-        &self.outputs
+        self.outputs.as_ref().expect("computed above")
     }
 
     /// The friction step at these inputs, for outputs and their derivatives: `None` off
@@ -613,10 +609,7 @@ impl Tire {
         // Held inputs end the step where they started: the outputs there come from the
         // system already at hand, so compute them now rather than look it up again.
         // (After a step with sliding the limits shape them: they are computed on demand.)
-        self.outputs_current = !ramping && !sliding;
-        if self.outputs_current {
-            self.outputs = state_space.outputs(&next_states, u0);
-        }
+        self.outputs = (!ramping && !sliding).then(|| state_space.outputs(&next_states, u0));
         self.step_made_for = made_for;
         self.states = next_states;
         if ramping {

@@ -129,12 +129,10 @@ const MAX_VARYING: usize = 64;
 #[derive(Clone, Debug, PartialEq)]
 pub struct AffineSystem {
     at_rest: StateSpace,
-    /// Ordered by matrix (A, B, C, D), then the terms that set an entry before those that
-    /// add to one, then entry; `setting_ends[m]` is one past the last setting term of
-    /// matrix m, and `matrix_ends[m]` one past its last term.
+    /// Ordered by matrix (A, B, C, D), then entry; `matrix_ends[m]` is one past the last
+    /// term of matrix m.
     varying: [VaryingTerm; MAX_VARYING],
     varying_count: usize,
-    setting_ends: [usize; 4],
     matrix_ends: [usize; 4],
 }
 
@@ -157,16 +155,13 @@ fn column_major_index(s: &StateSpace, matrix: Matrix, row: usize, column: usize)
     column * rows + row
 }
 
-/// Writes one matrix's varying entries into its storage: the setting terms
-/// (`terms[..setting]`), then the terms that add to an entry already set.
+/// Writes each term into one matrix's storage.
 #[inline]
-fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], setting: usize, point: &OperatingPoint) {
-    let (firsts, followers) = terms.split_at(setting);
-    for term in firsts {
-        storage[term.index as usize] = term.at_rest + term.slope * point.coordinate(term.coordinate);
-    }
-    for term in followers {
-        storage[term.index as usize] += term.slope * point.coordinate(term.coordinate);
+fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], point: &OperatingPoint) {
+    for term in terms {
+        let index = term.index as usize;
+        let base = if term.first { term.at_rest } else { storage[index] };
+        storage[index] = base + term.slope * point.coordinate(term.coordinate);
     }
 }
 
@@ -191,7 +186,6 @@ impl AffineSystem {
             at_rest: at_rest.clone(),
             varying: [placeholder; MAX_VARYING],
             varying_count: 0,
-            setting_ends: [0; 4],
             matrix_ends: [0; 4],
         };
         let mut unit_entries = units.each_ref().map(entries);
@@ -255,17 +249,15 @@ impl AffineSystem {
     /// Orders the entries by matrix and records where each matrix's run ends.
     fn index_by_matrix(&mut self) {
         let count = self.varying_count;
-        // Stable: the terms that add to one entry keep their order.
-        self.varying[..count].sort_by_key(|t| (t.matrix, !t.first, t.index));
+        // Stable: the terms of one entry keep their order, the setting one first.
+        self.varying[..count].sort_by_key(|t| (t.matrix, t.index));
         for (m, matrix) in [Matrix::A, Matrix::B, Matrix::C, Matrix::D]
             .into_iter()
             .enumerate()
         {
-            let terms = &self.varying[..count];
-            self.matrix_ends[m] = terms.iter().filter(|e| e.matrix <= matrix).count();
-            self.setting_ends[m] = terms
+            self.matrix_ends[m] = self.varying[..count]
                 .iter()
-                .filter(|e| e.matrix < matrix || (e.matrix == matrix && e.first))
+                .filter(|e| e.matrix <= matrix)
                 .count();
         }
     }
@@ -307,16 +299,16 @@ impl AffineSystem {
 
     /// The state and input matrices of [`AffineSystem::evaluate`]: all a step map needs.
     pub fn evaluate_dynamics(&self, point: &OperatingPoint, system: &mut StateSpace) {
-        let ([a, b, ..], [set_a, set_b, ..]) = (self.matrix_ends, self.setting_ends);
-        write_terms(system.a.as_mut_slice(), &self.varying[..a], set_a, point);
-        write_terms(system.b.as_mut_slice(), &self.varying[a..b], set_b - a, point);
+        let [a, b, ..] = self.matrix_ends;
+        write_terms(system.a.as_mut_slice(), &self.varying[..a], point);
+        write_terms(system.b.as_mut_slice(), &self.varying[a..b], point);
     }
 
     /// The output and feedthrough matrices of [`AffineSystem::evaluate`].
     pub fn evaluate_outputs(&self, point: &OperatingPoint, system: &mut StateSpace) {
-        let ([_, b, c, d], [_, _, set_c, set_d]) = (self.matrix_ends, self.setting_ends);
-        write_terms(system.c.as_mut_slice(), &self.varying[b..c], set_c - b, point);
-        write_terms(system.d.as_mut_slice(), &self.varying[c..d], set_d - c, point);
+        let [_, b, c, d] = self.matrix_ends;
+        write_terms(system.c.as_mut_slice(), &self.varying[b..c], point);
+        write_terms(system.d.as_mut_slice(), &self.varying[c..d], point);
     }
 
     /// Typical magnitude of each state-matrix entry (at rest plus 10 of each coordinate),
