@@ -509,8 +509,8 @@ impl Friction {
         self.check.short = None;
         self.check.limits = limits;
         // Sum over a group of (bound / limit)^2 < phi_1^2, multiplied out so that nothing
-        // divides (three divisions by the limits at every new load were a fifth of a
-        // sticking step's time): (bx Ly)^2 + (by Lx)^2 < (phi_1 Lx Ly)^2 for the ellipse.
+        // divides (three divisions by the limits at every new load cost DDT's step about
+        // 6 ns): (bx Ly)^2 + (by Lx)^2 < (phi_1 Lx Ly)^2 for the ellipse.
         let [limit_x, limit_y, limit_yaw] = limits.0;
         let share = self.first_breakpoint;
         let [x, y, yaw] = self.present_directions;
