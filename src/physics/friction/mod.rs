@@ -607,7 +607,8 @@ impl Friction {
             // undriven elements, enough for a lag-bounded one while its force is well inside
             // its limit. (Otherwise the bounds below, from the force rates. With every
             // element undriven those are the exact ones.)
-            if self.rigorous_bounds_within_limits(step) {
+            let utilisation: GroupUtilisation = self.rigorous_bounds_any(step);
+            if utilisation.within(&self.check.thresholds) {
                 return true;
             }
         }
@@ -617,7 +618,8 @@ impl Friction {
         }
         if self.together {
             // The usual case, kept short: one bound per element.
-            return self.together_bounds_within_limits(step, held);
+            let utilisation: GroupUtilisation = self.together_bounds_any(step, held);
+            return utilisation.within(&self.check.thresholds);
         }
         let mut bounds = PartBounds::start(&self.state);
         self.bound_part(step, held, &mut bounds) && self.commit(bounds)
@@ -678,15 +680,6 @@ impl Friction {
     /// bounds take a large frame, which a step without friction should not pay for).
     #[inline(never)]
     fn together_bounds_sized<const N: usize, S: ForceBounds>(&self, step: &LinearStep, held: bool) -> S {
-        self.together_bounds_sized_inline::<N, S>(step, held)
-    }
-
-    #[inline(always)]
-    fn together_bounds_sized_inline<const N: usize, S: ForceBounds>(
-        &self,
-        step: &LinearStep,
-        held: bool,
-    ) -> S {
         if self.check.rows_ready {
             self.together_bounds::<N, S>(step, held)
         } else {
@@ -694,39 +687,14 @@ impl Friction {
         }
     }
 
-    /// Whether [`Friction::rigorous_bounds`] are within the limits, sized by the model's
-    /// state count. (The bounds are compared where they are made: returned through memory
-    /// and read back at once, they would wait on their stores.)
-    fn rigorous_bounds_within_limits(&self, step: &LinearStep) -> bool {
+    /// [`Friction::rigorous_bounds`] sized by the model's state count.
+    fn rigorous_bounds_any<S: ForceBounds>(&self, step: &LinearStep) -> S {
         match step.system.states {
-            2 => self.rigorous_bounds_within_limits_sized::<2>(step),
-            3 => self.rigorous_bounds_within_limits_sized::<3>(step),
-            4 => self.rigorous_bounds_within_limits_sized::<4>(step),
-            _ => self.rigorous_bounds_within_limits_sized::<MAX_STATES>(step),
+            2 => self.rigorous_bounds::<2, S>(step),
+            3 => self.rigorous_bounds::<3, S>(step),
+            4 => self.rigorous_bounds::<4, S>(step),
+            _ => self.rigorous_bounds::<MAX_STATES, S>(step),
         }
-    }
-
-    #[inline(never)]
-    fn rigorous_bounds_within_limits_sized<const N: usize>(&self, step: &LinearStep) -> bool {
-        self.rigorous_bounds::<N, GroupUtilisation>(step)
-            .within(&self.check.thresholds)
-    }
-
-    /// Whether [`Friction::together_bounds_any`] are within the limits (compared where they
-    /// are made, as above).
-    fn together_bounds_within_limits(&self, step: &LinearStep, held: bool) -> bool {
-        match step.system.states {
-            2 => self.together_bounds_within_limits_sized::<2>(step, held),
-            3 => self.together_bounds_within_limits_sized::<3>(step, held),
-            4 => self.together_bounds_within_limits_sized::<4>(step, held),
-            _ => self.together_bounds_within_limits_sized::<MAX_STATES>(step, held),
-        }
-    }
-
-    #[inline(never)]
-    fn together_bounds_within_limits_sized<const N: usize>(&self, step: &LinearStep, held: bool) -> bool {
-        self.together_bounds_sized_inline::<N, GroupUtilisation>(step, held)
-            .within(&self.check.thresholds)
     }
 
     /// For [`Friction::sticking_step`] while every branch is at its element's state, with
@@ -738,7 +706,7 @@ impl Friction {
     ///   `|g| <= G`, G from the ends of its monotone drivers. So `|U| <= |U(0)| + G h` and
     ///   `|dU/dt| <= |a| |U| + G`, and its force `C U + D dU/dt = (C + D a) U + D g` is at
     ///   most `|C + D a| (|U(0)| + G h) + D G`. (Infinite where `a > 0`.)
-    #[inline(always)]
+    #[inline(never)]
     fn rigorous_bounds<const N: usize, S: ForceBounds>(&self, step: &LinearStep) -> S {
         let LinearStep {
             system,
