@@ -92,6 +92,18 @@ fn with_instance(
     function: &str,
     body: impl FnOnce(&mut Instance) -> CallResult,
 ) -> fmi2Status {
+    with_instance_logged(c, function, String::new, body)
+}
+
+/// [`with_instance`] for a call with arguments: after the call succeeds, with logAll on,
+/// the log names the function with `arguments()` (value references, values, times; the
+/// values a get wrote). `arguments` is not called otherwise, so it costs nothing then.
+fn with_instance_logged(
+    c: fmi2Component,
+    function: &str,
+    arguments: impl FnOnce() -> String,
+    body: impl FnOnce(&mut Instance) -> CallResult,
+) -> fmi2Status {
     let instance = c.cast::<Instance>();
     if instance.is_null() {
         return Status::Error as fmi2Status;
@@ -102,12 +114,47 @@ fn with_instance(
     let instance = unsafe { &mut *instance };
     let status = match result {
         Ok(Ok(())) => {
-            instance.logger.log(Status::Ok, Category::All, function);
+            if instance.logger.enabled(Category::All) {
+                log_call(instance, function, arguments);
+            }
             Status::Ok
         }
         failure => report_failure(instance, function, failure),
     };
     status as fmi2Status
+}
+
+/// The logAll message of a call that succeeded: `function(arguments)`.
+#[cold]
+#[inline(never)]
+fn log_call(instance: &Instance, function: &str, arguments: impl FnOnce() -> String) {
+    let arguments = catch_unwind(AssertUnwindSafe(arguments)).unwrap_or_default();
+    instance
+        .logger
+        .log(Status::Ok, Category::All, &format!("{function}({arguments})"));
+}
+
+/// At most this many elements of an array argument are written into a log message.
+const LOGGED_ELEMENTS: usize = 64;
+
+/// An array argument for a log message, `[a, b, c]`; the first [`LOGGED_ELEMENTS`] and the
+/// count of the rest.
+///
+/// # Safety
+/// As [`array`]; only called for arrays the call itself has read or written.
+unsafe fn listed<T: std::fmt::Debug>(ptr: *const T, n: usize) -> String {
+    let Ok(elements) = (unsafe { array(ptr, n, "") }) else {
+        return "?".into();
+    };
+    let shown: Vec<String> = elements
+        .iter()
+        .take(LOGGED_ELEMENTS)
+        .map(|e| format!("{e:?}"))
+        .collect();
+    match elements.len().checked_sub(LOGGED_ELEMENTS) {
+        Some(rest) if rest > 0 => format!("[{}, ... {rest} more]", shown.join(", ")),
+        _ => format!("[{}]", shown.join(", ")),
+    }
 }
 
 /// Logs why a call failed and gives its status; out of line, off the path of a call that
@@ -235,7 +282,19 @@ pub extern "C" fn fmi2SetDebugLogging(
     nCategories: usize,
     categories: *const fmi2String,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetDebugLogging", |instance| {
+    let arguments = || {
+        let names = unsafe { array(categories, nCategories, "") }
+            .map(|pointers| {
+                pointers
+                    .iter()
+                    .map(|&p| unsafe { text(p, "") }.map_or("?", |t| t))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            })
+            .unwrap_or_default();
+        format!("loggingOn = {loggingOn}, categories = [{names}]")
+    };
+    with_instance_logged(c, "fmi2SetDebugLogging", arguments, |instance| {
         instance.require(Call::SetDebugLogging)?;
         let pointers = unsafe { array(categories, nCategories, "categories")? };
         let names = pointers
@@ -255,7 +314,13 @@ pub extern "C" fn fmi2SetupExperiment(
     stopTimeDefined: fmi2Boolean,
     stopTime: fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetupExperiment", |instance| {
+    let arguments = || {
+        format!(
+            "toleranceDefined = {_toleranceDefined}, tolerance = {_tolerance}, startTime = {startTime}, \
+             stopTimeDefined = {stopTimeDefined}, stopTime = {stopTime}"
+        )
+    };
+    with_instance_logged(c, "fmi2SetupExperiment", arguments, |instance| {
         instance.require(Call::SetupExperiment)?;
         instance.setup_experiment(startTime, (stopTimeDefined != 0).then_some(stopTime))
     })
@@ -300,7 +365,8 @@ pub extern "C" fn fmi2GetReal(
     nvr: usize,
     value: *mut fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2GetReal", |instance| unsafe {
+    let arguments = || unsafe { format!("vr = {}, value -> {}", listed(vr, nvr), listed(value, nvr)) };
+    with_instance_logged(c, "fmi2GetReal", arguments, |instance| unsafe {
         instance.get_real(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
     })
 }
@@ -312,7 +378,8 @@ pub extern "C" fn fmi2GetInteger(
     nvr: usize,
     value: *mut fmi2Integer,
 ) -> fmi2Status {
-    with_instance(c, "fmi2GetInteger", |instance| unsafe {
+    let arguments = || unsafe { format!("vr = {}, value -> {}", listed(vr, nvr), listed(value, nvr)) };
+    with_instance_logged(c, "fmi2GetInteger", arguments, |instance| unsafe {
         instance.get_integer(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
     })
 }
@@ -348,7 +415,8 @@ pub extern "C" fn fmi2SetReal(
     nvr: usize,
     value: *const fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetReal", |instance| unsafe {
+    let arguments = || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
+    with_instance_logged(c, "fmi2SetReal", arguments, |instance| unsafe {
         instance.set_real(array(vr, nvr, "vr")?, array(value, nvr, "value")?)
     })
 }
@@ -360,7 +428,8 @@ pub extern "C" fn fmi2SetInteger(
     nvr: usize,
     value: *const fmi2Integer,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetInteger", |instance| unsafe {
+    let arguments = || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
+    with_instance_logged(c, "fmi2SetInteger", arguments, |instance| unsafe {
         instance.set_integer(array(vr, nvr, "vr")?, array(value, nvr, "value")?)
     })
 }
@@ -410,7 +479,13 @@ unsafe fn store(slot: &mut fmi2FMUstate, snapshot: Snapshot) {
 
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
-    with_instance(c, "fmi2GetFMUstate", |instance| {
+    let arguments = || {
+        format!(
+            "FMUstate -> {:p}",
+            unsafe { FMUstate.as_ref() }.map_or(null_mut(), |s| *s)
+        )
+    };
+    with_instance_logged(c, "fmi2GetFMUstate", arguments, |instance| {
         let slot = unsafe { out(FMUstate, "FMUstate")? };
         unsafe { store(slot, instance.snapshot()?) };
         Ok(())
@@ -419,7 +494,8 @@ pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate)
 
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstate) -> fmi2Status {
-    with_instance(c, "fmi2SetFMUstate", |instance| {
+    let arguments = || format!("FMUstate = {FMUstate:p}");
+    with_instance_logged(c, "fmi2SetFMUstate", arguments, |instance| {
         instance.restore(&unsafe { fmu_state(FMUstate)? }.0)
     })
 }
@@ -445,7 +521,13 @@ pub extern "C" fn fmi2SerializedFMUstateSize(
     FMUstate: fmi2FMUstate,
     size: *mut usize,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SerializedFMUstateSize", |instance| {
+    let arguments = || {
+        format!(
+            "FMUstate = {FMUstate:p}, size -> {}",
+            unsafe { size.as_ref() }.map_or(0, |s| *s)
+        )
+    };
+    with_instance_logged(c, "fmi2SerializedFMUstateSize", arguments, |instance| {
         instance.require(Call::GetFmuState)?;
         let bytes = unsafe { fmu_state(FMUstate)? }.0.to_bytes();
         *unsafe { out(size, "size")? } = bytes.len();
@@ -460,7 +542,8 @@ pub extern "C" fn fmi2SerializeFMUstate(
     serializedState: *mut fmi2Byte,
     size: usize,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SerializeFMUstate", |instance| {
+    let arguments = || format!("FMUstate = {FMUstate:p}, size = {size}");
+    with_instance_logged(c, "fmi2SerializeFMUstate", arguments, |instance| {
         instance.require(Call::GetFmuState)?;
         let bytes = unsafe { fmu_state(FMUstate)? }.0.to_bytes();
         if size < bytes.len() {
@@ -482,7 +565,8 @@ pub extern "C" fn fmi2DeSerializeFMUstate(
     size: usize,
     FMUstate: *mut fmi2FMUstate,
 ) -> fmi2Status {
-    with_instance(c, "fmi2DeSerializeFMUstate", |instance| {
+    let arguments = || format!("size = {size}");
+    with_instance_logged(c, "fmi2DeSerializeFMUstate", arguments, |instance| {
         instance.require(Call::SetFmuState)?;
         let slot = unsafe { out(FMUstate, "FMUstate")? };
         let bytes = unsafe { array(serializedState.cast::<u8>(), size, "serializedState")? };
@@ -501,7 +585,16 @@ pub extern "C" fn fmi2GetDirectionalDerivative(
     dvKnown: *const fmi2Real,
     dvUnknown: *mut fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2GetDirectionalDerivative", |instance| unsafe {
+    let arguments = || unsafe {
+        format!(
+            "vUnknown_ref = {}, vKnown_ref = {}, dvKnown = {}, dvUnknown -> {}",
+            listed(vUnknown_ref, nUnknown),
+            listed(vKnown_ref, nKnown),
+            listed(dvKnown, nKnown),
+            listed(dvUnknown, nUnknown)
+        )
+    };
+    with_instance_logged(c, "fmi2GetDirectionalDerivative", arguments, |instance| unsafe {
         instance.directional_derivative(
             array(vUnknown_ref, nUnknown, "vUnknown_ref")?,
             array(vKnown_ref, nKnown, "vKnown_ref")?,
@@ -519,7 +612,15 @@ pub extern "C" fn fmi2SetRealInputDerivatives(
     order: *const fmi2Integer,
     value: *const fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetRealInputDerivatives", |instance| unsafe {
+    let arguments = || unsafe {
+        format!(
+            "vr = {}, order = {}, value = {}",
+            listed(vr, nvr),
+            listed(order, nvr),
+            listed(value, nvr)
+        )
+    };
+    with_instance_logged(c, "fmi2SetRealInputDerivatives", arguments, |instance| unsafe {
         instance.set_input_derivatives(
             array(vr, nvr, "vr")?,
             array(order, nvr, "order")?,
@@ -536,7 +637,15 @@ pub extern "C" fn fmi2GetRealOutputDerivatives(
     order: *const fmi2Integer,
     value: *mut fmi2Real,
 ) -> fmi2Status {
-    with_instance(c, "fmi2GetRealOutputDerivatives", |instance| unsafe {
+    let arguments = || unsafe {
+        format!(
+            "vr = {}, order = {}, value -> {}",
+            listed(vr, nvr),
+            listed(order, nvr),
+            listed(value, nvr)
+        )
+    };
+    with_instance_logged(c, "fmi2GetRealOutputDerivatives", arguments, |instance| unsafe {
         instance.get_output_derivatives(
             array(vr, nvr, "vr")?,
             array(order, nvr, "order")?,
@@ -552,7 +661,13 @@ pub extern "C" fn fmi2DoStep(
     communicationStepSize: fmi2Real,
     _noSetFMUStatePriorToCurrentPoint: fmi2Boolean,
 ) -> fmi2Status {
-    with_instance(c, "fmi2DoStep", |instance| {
+    let arguments = || {
+        format!(
+            "currentCommunicationPoint = {currentCommunicationPoint}, communicationStepSize = \
+             {communicationStepSize}, noSetFMUStatePriorToCurrentPoint = {_noSetFMUStatePriorToCurrentPoint}"
+        )
+    };
+    with_instance_logged(c, "fmi2DoStep", arguments, |instance| {
         instance.do_step(currentCommunicationPoint, communicationStepSize)
     })
 }

@@ -310,9 +310,20 @@ impl Instance {
                 }
                 Ok(())
             }
-            Causality::Parameter if self.phase == Phase::StepComplete => refuse(
-                "it is a fixed parameter and the FMU is initialised; only inputs can change now".into(),
-            ),
+            // Importers such as the FMU Compliance Checker set every column of their input
+            // file before every step: the value a fixed parameter already has is harmless.
+            Causality::Parameter if self.phase == Phase::StepComplete => {
+                let current = self.parameter_value(variable);
+                if value == current {
+                    Ok(())
+                } else {
+                    refuse(format!(
+                        "it is a fixed parameter and the FMU is initialised with {} = {current}; \
+                         only inputs can change now",
+                        info.name
+                    ))
+                }
+            }
             Causality::Parameter => match variable.role() {
                 Role::Parameter(p) => p.check(value).map_err(|e| Rejection::error(e.to_string())),
                 Role::FrictionChoice => match FrictionLaw::from_value(value as i64) {
@@ -330,7 +341,22 @@ impl Instance {
         }
     }
 
+    /// The value in use of a parameter or selector.
+    fn parameter_value(&self, variable: Variable) -> f64 {
+        match variable.role() {
+            Role::Parameter(p) => self.parameters.get(p),
+            Role::ModelChoice => self.parameters.model as i32 as f64,
+            Role::FrictionChoice => self.parameters.friction as i32 as f64,
+            Role::Input(_) | Role::Output(_) => f64::NAN,
+        }
+    }
+
     fn apply(&mut self, variable: Variable, value: f64) {
+        let is_parameter = !matches!(variable.role(), Role::Input(_) | Role::Output(_));
+        if is_parameter && self.parameter_value(variable) == value {
+            // Unchanged: the tire need not be rebuilt.
+            return;
+        }
         match variable.role() {
             Role::Input(input) => {
                 self.normal_load_set |= input == Input::Fz;

@@ -68,3 +68,39 @@ def test_percent_and_hash_arrive_intact_through_a_formatting_logger(fmu):
 def test_percent_and_hash_arrive_escaped_through_a_plain_logger(fmu):
     message = category_message(fmu, fc.LogCapture(formatting=False), CATEGORY)
     assert f"'{CATEGORY.replace('%', '%%').replace('#', '##')}'" in message, message
+
+
+def test_log_all_gives_each_call_with_its_arguments(fmu):
+    """With logging on, the logAll category traces every call that succeeded with its
+    arguments: value references and values (those a get returned, too) and times."""
+    md, unzipdir = fmu
+    log = fc.LogCapture(formatting=True)
+    s = fc.new_slave(md, unzipdir, name="trace", log=log, logging_on=True)
+    try:
+        s.setupExperiment(startTime=0.5)
+        s.setReal([fc.PARAMETER_VR["sigmaY"]], [0.75])
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        s.setReal([fc.INPUT_VR["vx"], fc.INPUT_VR["vy"]], [12.5, -0.25])
+        s.doStep(currentCommunicationPoint=0.5, communicationStepSize=0.002)
+        fy = s.getReal([fc.OUTPUT_VR["Fy"]])[0]
+        model = s.getInteger([fc.MODEL_VR])[0]
+    finally:
+        fc.close(s)
+    traced = [m for (status, category, m) in log.messages if category == "logAll"]
+    text = "\n".join(traced)
+
+    def line(prefix):
+        found = [m for m in traced if m.startswith(prefix)]
+        assert found, f"no logAll message starting {prefix!r}; got:\n{text}"
+        return found
+
+    assert any("startTime = 0.5" in m for m in line("fmi2SetupExperiment("))
+    assert any(f"vr = [{fc.PARAMETER_VR['sigmaY']}]" in m and "value = [0.75]" in m for m in line("fmi2SetReal("))
+    assert any(f"vr = [{fc.INPUT_VR['vx']}, {fc.INPUT_VR['vy']}]" in m and "value = [12.5, -0.25]" in m
+               for m in line("fmi2SetReal("))
+    assert any("currentCommunicationPoint = 0.5" in m and "communicationStepSize = 0.002" in m
+               for m in line("fmi2DoStep("))
+    assert any(f"vr = [{fc.OUTPUT_VR['Fy']}]" in m and f"value -> [{fy!r}]" in m for m in line("fmi2GetReal("))
+    assert any(f"value -> [{model}]" in m for m in line("fmi2GetInteger("))
+    assert line("fmi2ExitInitializationMode(")
