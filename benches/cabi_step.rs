@@ -14,6 +14,12 @@
 //! Each model runs with three friction settings: `Unlimited` (the linear model), `Brush`
 //! (the default; these inputs stay below 0.2 Fmax, so every branch sticks), and `Brush`
 //! with mu = 0.02 (Fmax 1 kN: the tire slides, and steps go through the sliding path).
+//!
+//! Then a stiff tire at a light load, as every wheel passes through on its way to
+//! lift-off: Calpha = Ckappa = 1e7, sigmaY = sigmaX = 0.05 m (2e8 N/m), Fz = 100 N,
+//! vx = 5 m/s, with Coulomb and Brush. "sliding": vy = -0.5, vsx = -0.3 m/s, both
+//! directions sliding on the friction ellipse, whose force turns towards the slip within
+//! microseconds; "sticking": the same tire at vy = vsx = -2e-6 m/s, below 0.1 Fmax.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -118,6 +124,54 @@ fn main() {
                 cells.push(format!("{:.0} ({low:.0}-{high:.0})", median(times)));
             }
             println!("{name:<26} {:>24} {:>24}", cells[0], cells[1]);
+        }
+    }
+    stiff_light_tire(&fmu, steps, passes, step);
+}
+
+/// The stiff tire at a light load, sticking and sliding, per model and law (see the top).
+fn stiff_light_tire(fmu: &fmi_sys::fmi2::Fmi2Binding, steps: usize, passes: usize, step: f64) {
+    // Sliding steps cost microseconds: fewer of them per pass.
+    let steps = steps / 10;
+    println!(
+        "\n{:<26} {:>24} {:>24} {:>7}",
+        "stiff light tire, ns/step", "sticking (min-max)", "sliding (min-max)", "ratio"
+    );
+    let reals = [
+        (vr::CALPHA, 1e7),
+        (vr::CKAPPA, 1e7),
+        (vr::SIGMA_Y, 0.05),
+        (vr::SIGMA_X, 0.05),
+        // The tread of SecondOrder and RingBody shorter than the relaxation lengths.
+        (vr::SIGMA_TREAD, 0.01),
+    ];
+    for (model, model_name) in [(1, "RLT"), (2, "DDT"), (3, "SecondOrder"), (4, "RingBody")] {
+        for (law, law_name) in [(2, "Coulomb"), (3, "Brush")] {
+            let mut cells = Vec::new();
+            let mut medians = Vec::new();
+            for slip in [-2e-6, -1.0] {
+                let table = vec![[5.0, 0.5 * slip, 0.0, 0.3 * slip, 100.0]; steps];
+                let integers = [(vr::MODEL, model), (vr::FRICTION, law)];
+                let mut slave = Slave::configured(fmu, "stiff", &integers, &reals);
+                let mut outputs = [0.0; 9];
+                pass(&mut slave, &table, step, &mut outputs); // warm-up, into steady sliding
+                let times: Vec<f64> = (0..passes)
+                    .map(|_| pass(&mut slave, &table, step, &mut outputs))
+                    .collect();
+                let (low, high) = (
+                    times.iter().copied().fold(f64::INFINITY, f64::min),
+                    times.iter().copied().fold(0.0, f64::max),
+                );
+                medians.push(median(times.clone()));
+                cells.push(format!("{:.0} ({low:.0}-{high:.0})", medians[medians.len() - 1]));
+            }
+            println!(
+                "{:<26} {:>24} {:>24} {:>7.1}",
+                format!("{model_name} {law_name}"),
+                cells[0],
+                cells[1],
+                medians[1] / medians[0]
+            );
         }
     }
 }

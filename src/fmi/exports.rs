@@ -282,7 +282,7 @@ pub extern "C" fn fmi2SetDebugLogging(
     nCategories: usize,
     categories: *const fmi2String,
 ) -> fmi2Status {
-    let arguments = || {
+    let arguments = move || {
         let names = unsafe { array(categories, nCategories, "") }
             .map(|pointers| {
                 pointers
@@ -314,7 +314,7 @@ pub extern "C" fn fmi2SetupExperiment(
     stopTimeDefined: fmi2Boolean,
     stopTime: fmi2Real,
 ) -> fmi2Status {
-    let arguments = || {
+    let arguments = move || {
         format!(
             "toleranceDefined = {_toleranceDefined}, tolerance = {_tolerance}, startTime = {startTime}, \
              stopTimeDefined = {stopTimeDefined}, stopTime = {stopTime}"
@@ -365,7 +365,7 @@ pub extern "C" fn fmi2GetReal(
     nvr: usize,
     value: *mut fmi2Real,
 ) -> fmi2Status {
-    let arguments = || unsafe { format!("vr = {}, value -> {}", listed(vr, nvr), listed(value, nvr)) };
+    let arguments = move || unsafe { format!("vr = {}, value -> {}", listed(vr, nvr), listed(value, nvr)) };
     with_instance_logged(c, "fmi2GetReal", arguments, |instance| unsafe {
         instance.get_real(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
     })
@@ -378,7 +378,7 @@ pub extern "C" fn fmi2GetInteger(
     nvr: usize,
     value: *mut fmi2Integer,
 ) -> fmi2Status {
-    let arguments = || unsafe { format!("vr = {}, value -> {}", listed(vr, nvr), listed(value, nvr)) };
+    let arguments = move || unsafe { format!("vr = {}, value -> {}", listed(vr, nvr), listed(value, nvr)) };
     with_instance_logged(c, "fmi2GetInteger", arguments, |instance| unsafe {
         instance.get_integer(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
     })
@@ -415,7 +415,7 @@ pub extern "C" fn fmi2SetReal(
     nvr: usize,
     value: *const fmi2Real,
 ) -> fmi2Status {
-    let arguments = || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
+    let arguments = move || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
     with_instance_logged(c, "fmi2SetReal", arguments, |instance| unsafe {
         instance.set_real(array(vr, nvr, "vr")?, array(value, nvr, "value")?)
     })
@@ -428,7 +428,7 @@ pub extern "C" fn fmi2SetInteger(
     nvr: usize,
     value: *const fmi2Integer,
 ) -> fmi2Status {
-    let arguments = || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
+    let arguments = move || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
     with_instance_logged(c, "fmi2SetInteger", arguments, |instance| unsafe {
         instance.set_integer(array(vr, nvr, "vr")?, array(value, nvr, "value")?)
     })
@@ -479,7 +479,7 @@ unsafe fn store(slot: &mut fmi2FMUstate, snapshot: Snapshot) {
 
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
-    let arguments = || {
+    let arguments = move || {
         format!(
             "FMUstate -> {:p}",
             unsafe { FMUstate.as_ref() }.map_or(null_mut(), |s| *s)
@@ -494,7 +494,7 @@ pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate)
 
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstate) -> fmi2Status {
-    let arguments = || format!("FMUstate = {FMUstate:p}");
+    let arguments = move || format!("FMUstate = {FMUstate:p}");
     with_instance_logged(c, "fmi2SetFMUstate", arguments, |instance| {
         instance.restore(&unsafe { fmu_state(FMUstate)? }.0)
     })
@@ -521,7 +521,7 @@ pub extern "C" fn fmi2SerializedFMUstateSize(
     FMUstate: fmi2FMUstate,
     size: *mut usize,
 ) -> fmi2Status {
-    let arguments = || {
+    let arguments = move || {
         format!(
             "FMUstate = {FMUstate:p}, size -> {}",
             unsafe { size.as_ref() }.map_or(0, |s| *s)
@@ -542,7 +542,7 @@ pub extern "C" fn fmi2SerializeFMUstate(
     serializedState: *mut fmi2Byte,
     size: usize,
 ) -> fmi2Status {
-    let arguments = || format!("FMUstate = {FMUstate:p}, size = {size}");
+    let arguments = move || format!("FMUstate = {FMUstate:p}, size = {size}");
     with_instance_logged(c, "fmi2SerializeFMUstate", arguments, |instance| {
         instance.require(Call::GetFmuState)?;
         let bytes = unsafe { fmu_state(FMUstate)? }.0.to_bytes();
@@ -565,7 +565,7 @@ pub extern "C" fn fmi2DeSerializeFMUstate(
     size: usize,
     FMUstate: *mut fmi2FMUstate,
 ) -> fmi2Status {
-    let arguments = || format!("size = {size}");
+    let arguments = move || format!("size = {size}");
     with_instance_logged(c, "fmi2DeSerializeFMUstate", arguments, |instance| {
         instance.require(Call::SetFmuState)?;
         let slot = unsafe { out(FMUstate, "FMUstate")? };
@@ -585,7 +585,7 @@ pub extern "C" fn fmi2GetDirectionalDerivative(
     dvKnown: *const fmi2Real,
     dvUnknown: *mut fmi2Real,
 ) -> fmi2Status {
-    let arguments = || unsafe {
+    let arguments = move || unsafe {
         format!(
             "vUnknown_ref = {}, vKnown_ref = {}, dvKnown = {}, dvUnknown -> {}",
             listed(vUnknown_ref, nUnknown),
@@ -612,7 +612,7 @@ pub extern "C" fn fmi2SetRealInputDerivatives(
     order: *const fmi2Integer,
     value: *const fmi2Real,
 ) -> fmi2Status {
-    let arguments = || unsafe {
+    let arguments = move || unsafe {
         format!(
             "vr = {}, order = {}, value = {}",
             listed(vr, nvr),
@@ -637,7 +637,7 @@ pub extern "C" fn fmi2GetRealOutputDerivatives(
     order: *const fmi2Integer,
     value: *mut fmi2Real,
 ) -> fmi2Status {
-    let arguments = || unsafe {
+    let arguments = move || unsafe {
         format!(
             "vr = {}, order = {}, value -> {}",
             listed(vr, nvr),
@@ -661,7 +661,7 @@ pub extern "C" fn fmi2DoStep(
     communicationStepSize: fmi2Real,
     _noSetFMUStatePriorToCurrentPoint: fmi2Boolean,
 ) -> fmi2Status {
-    let arguments = || {
+    let arguments = move || {
         format!(
             "currentCommunicationPoint = {currentCommunicationPoint}, communicationStepSize = \
              {communicationStepSize}, noSetFMUStatePriorToCurrentPoint = {_noSetFMUStatePriorToCurrentPoint}"

@@ -32,7 +32,10 @@ pub mod vr {
     pub const MU_X: u32 = 122;
     pub const MU_Y: u32 = 123;
     pub const CALPHA: u32 = 101;
+    pub const CKAPPA: u32 = 102;
     pub const SIGMA_Y: u32 = 103;
+    pub const SIGMA_X: u32 = 104;
+    pub const SIGMA_TREAD: u32 = 119;
 }
 
 /// A file written by `./scripts/build-fmu`: the path in `env_var`, else `relative` to the

@@ -42,6 +42,57 @@ pub(super) fn peak_between(first: &Events, middle: &Events, last: &Events) -> Op
     None
 }
 
+/// Where within a substep a limit may have been touched, from the event values at the
+/// samples of one integration row: the first sample past the tolerance, or a peak past it
+/// between three consecutive samples, else the sample closest to its limit (within
+/// [`NEAR_EVENT`]).
+pub(super) struct InteriorSearch {
+    interior: Option<Interior>,
+    closest: Option<(f64, usize, usize, f64)>,
+    recent: [Events; 2],
+    samples: usize,
+}
+
+impl InteriorSearch {
+    /// A search from the event values at the start of the substep.
+    pub(super) fn new(start_events: &Events) -> Self {
+        Self {
+            interior: None,
+            closest: None,
+            recent: [*start_events, *start_events],
+            samples: 0,
+        }
+    }
+
+    /// The event values at sample `index` (from 1), at `index spacing` from the start of
+    /// the substep.
+    pub(super) fn sample(&mut self, index: usize, spacing: f64, events: &Events) {
+        self.samples += 1;
+        let at = index as f64 * spacing;
+        if self.interior.is_none() {
+            self.interior = first_past_tolerance(events).map(|(g, i)| (at, g, i));
+        }
+        if self.interior.is_none() && self.samples >= 2 {
+            self.interior = peak_between(&self.recent[0], &self.recent[1], events)
+                .map(|(s, g, i)| ((index as f64 - 1.0 + s) * spacing, g, i));
+        }
+        for g in 0..Group::COUNT {
+            for i in 0..MAX_BRANCHES {
+                let e = events[g][i];
+                if e > -NEAR_EVENT && self.closest.is_none_or(|(_, _, _, best)| e > best) {
+                    self.closest = Some((at, g, i, e));
+                }
+            }
+        }
+        self.recent = [self.recent[1], *events];
+    }
+
+    /// The first interior point past the tolerance, and the sample closest to its limit.
+    pub(super) fn found(&self) -> (Option<Interior>, Option<Interior>) {
+        (self.interior, self.closest.map(|(at, g, i, _)| (at, g, i)))
+    }
+}
+
 /// The first group and branch whose event value is past the tolerance.
 pub(super) fn first_past_tolerance(events: &Events) -> Option<(usize, usize)> {
     (0..Group::COUNT)

@@ -3,9 +3,8 @@
 //! relative 1e-12. The midpoint samples also show where a limit may be touched inside the
 //! substep ([`super::events`]).
 
-use super::events::{Interior, NEAR_EVENT, first_past_tolerance, peak_between};
+use super::events::{Interior, InteriorSearch};
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
-use crate::physics::friction::{Group, MAX_BRANCHES};
 
 /// Midpoint substep counts of the extrapolation rows.
 const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
@@ -33,30 +32,13 @@ impl SlidingStep<'_> {
         let h = length / n as f64;
         let mut previous = *z;
         let mut current = *z;
-        let mut interior = None;
-        let mut closest: Option<(f64, usize, usize, f64)> = None;
-        let mut recent = [*start_events, *start_events];
+        let mut search = InteriorSearch::new(start_events);
         for (c, r) in current.iter_mut().zip(start_rates) {
             *c += h * r;
         }
         for m in 1..n {
             let (rates, events) = self.rates(t + m as f64 * h, &current, modes);
-            if interior.is_none() {
-                interior = first_past_tolerance(&events).map(|(g, i)| (m as f64 * h, g, i));
-            }
-            if interior.is_none() && m >= 2 {
-                interior = peak_between(&recent[0], &recent[1], &events)
-                    .map(|(s, g, i)| ((m as f64 - 1.0 + s) * h, g, i));
-            }
-            for g in 0..Group::COUNT {
-                for i in 0..MAX_BRANCHES {
-                    let e = events[g][i];
-                    if e > -NEAR_EVENT && closest.is_none_or(|(_, _, _, best)| e > best) {
-                        closest = Some((m as f64 * h, g, i, e));
-                    }
-                }
-            }
-            recent = [recent[1], events];
+            search.sample(m, h, &events);
             let mut next = previous;
             for ((nx, r), _) in next.iter_mut().zip(&rates).zip(0..) {
                 *nx += 2.0 * h * r;
@@ -69,12 +51,13 @@ impl SlidingStep<'_> {
         for k in 0..SIZE {
             out[k] = 0.5 * (current[k] + previous[k] + h * rates[k]);
         }
-        (out, interior, closest.map(|(at, g, i, _)| (at, g, i)), h)
+        let (interior, closest) = search.found();
+        (out, interior, closest, h)
     }
 
     /// The end of an extrapolated substep, without looking inside it for events.
     pub(super) fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes) -> Option<Vector> {
-        self.extrapolate(t, z, length, modes, false).map(|(z, _, _, _)| z)
+        self.substep_by(t, z, length, modes, false).map(|(z, _, _, _)| z)
     }
 
     /// An extrapolated substep, with where a limit may have been touched inside it and
@@ -86,7 +69,37 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        self.extrapolate(t, z, length, modes, true)
+        self.substep_by(t, z, length, modes, true)
+    }
+
+    /// A substep by the method the piece uses now ([`SlidingStep::stiff`]).
+    fn substep_by(
+        &self,
+        t: f64,
+        z: &Vector,
+        length: f64,
+        modes: &Modes,
+        look_inside: bool,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        if self.stiff.get() {
+            self.extrapolate_implicit(t, z, length, modes, look_inside)
+        } else {
+            self.extrapolate(t, z, length, modes, look_inside)
+        }
+    }
+
+    /// The largest difference between two rows' extrapolated values, relative to the
+    /// tolerance: of each entry and the deflection scale, and never below the rounding of
+    /// the largest entry (an entry decaying to zero next to a velocity of metres per
+    /// second cannot be resolved further). At most 1: accurate.
+    pub(super) fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
+        let floor = ROUNDING * z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        (0..SIZE)
+            .map(|c| {
+                (best[c] - previous[c]).abs()
+                    / (TOLERANCE * (self.scale + z[c].abs().max(best[c].abs())) + floor)
+            })
+            .fold(0.0, f64::max)
     }
 
     /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
@@ -114,16 +127,7 @@ impl SlidingStep<'_> {
                 }
             }
             if j >= 2 {
-                // Relative to each entry and the deflection scale, and never below the
-                // rounding of the largest entry (an entry decaying to zero next to a
-                // velocity of metres per second cannot be resolved further).
-                let floor = ROUNDING * z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-                let error = (0..SIZE)
-                    .map(|c| {
-                        (row[j][c] - row[j - 1][c]).abs()
-                            / (TOLERANCE * (self.scale + z[c].abs().max(row[j][c].abs())) + floor)
-                    })
-                    .fold(0.0, f64::max);
+                let error = self.error_ratio(z, &row[j], &row[j - 1]);
                 if error <= 1.0 {
                     // Error ~ length^(2j + 1): aim at a third of the tolerance next time.
                     let growth = 0.9 * (3.0 * error).max(1e-10).powf(-1.0 / (2 * j + 1) as f64);

@@ -3,7 +3,11 @@
 //!
 //! Within a piece every group keeps its mode, so the right-hand side is smooth; it is
 //! integrated by Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial
-//! extrapolation in h^2) to a relative 1e-12. After each substep the groups' event values
+//! extrapolation in h^2) to a relative 1e-12. A step that explicit method cannot finish
+//! (a stiff tire at a light load sliding on its ellipse turns its force within
+//! microseconds, and a long step would take too many substeps) is taken again from its
+//! start by linearly implicit Euler extrapolation, which is stable at any stiffness.
+//! Every step the explicit method finishes is its result, unchanged. After each substep the groups' event values
 //! are checked; where one crosses zero, the crossing time is found by regula falsi
 //! (Illinois) on the length of the substep, the state is taken there, the group changes
 //! mode, and integration goes on. A spring group that slides is kept on its ellipse to
@@ -13,12 +17,16 @@
 //! from one step to the next), so a restored FMU state continues bit-identically.
 //!
 //! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep;
-//! [`events`]: where within a substep a group changes mode.
+//! [`implicit`]: one substep of a stiff piece; [`events`]: where within a substep a group
+//! changes mode.
 
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
 mod events;
 mod extrapolation;
+mod implicit;
+
+use std::cell::Cell;
 
 use super::group::{GroupInput, GroupOutput};
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
@@ -52,6 +60,10 @@ pub struct SlidingStep<'a> {
     /// Each group and branch with its constants filled in (present directions, branch
     /// stiffness, damping and limit): what stays fixed over the step.
     templates: [[GroupInput; MAX_BRANCHES]; Group::COUNT],
+    /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
+    /// method could not finish. Event location integrates by the same method as the
+    /// substeps it searches.
+    stiff: Cell<bool>,
 }
 
 /// Why the integration gave up (the tire is left unchanged).
@@ -92,6 +104,7 @@ impl<'a> SlidingStep<'a> {
             input_rates,
             scale: Self::deflection_scale(friction, &limits, start_scale),
             templates,
+            stiff: Cell::new(false),
         }
     }
 
@@ -233,8 +246,24 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
-    /// of the step.
+    /// of the step. Explicitly first; a step the explicit method cannot finish (a stiff
+    /// slide) is taken again from its start by the linearly implicit method.
     pub fn integrate(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        h: f64,
+    ) -> Result<(), NotConverged> {
+        self.stiff.set(false);
+        if self.integrate_by_current_method(x, sliders, h).is_ok() {
+            return Ok(());
+        }
+        self.stiff.set(true);
+        self.integrate_by_current_method(x, sliders, h)
+    }
+
+    /// [`SlidingStep::integrate`] by the method [`SlidingStep::stiff`] says.
+    fn integrate_by_current_method(
         &self,
         x: &mut StateVector,
         sliders: &mut SliderState,
@@ -254,7 +283,11 @@ impl<'a> SlidingStep<'a> {
             if t >= h {
                 break;
             }
-            length = length.min(h - t).min(longest);
+            // The implicit substeps are stable at any length.
+            length = length.min(h - t);
+            if !self.stiff.get() {
+                length = length.min(longest);
+            }
             let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, length, &modes) else {
                 length *= 0.25;
                 if length <= 1e-15 * h {
