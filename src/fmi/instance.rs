@@ -341,7 +341,7 @@ impl Instance {
         }
     }
 
-    /// The value in use of a parameter or selector.
+    /// The value in use of a parameter or selector; NaN for inputs and outputs.
     fn parameter_value(&self, variable: Variable) -> f64 {
         match variable.role() {
             Role::Parameter(p) => self.parameters.get(p),
@@ -352,9 +352,9 @@ impl Instance {
     }
 
     fn apply(&mut self, variable: Variable, value: f64) {
-        let is_parameter = !matches!(variable.role(), Role::Input(_) | Role::Output(_));
-        if is_parameter && self.parameter_value(variable) == value {
-            // Unchanged: the tire need not be rebuilt.
+        // A parameter set to the value it has: the tire need not be rebuilt. (Inputs have
+        // no parameter value: NaN equals nothing.)
+        if self.parameter_value(variable) == value {
             return;
         }
         match variable.role() {

@@ -1,13 +1,19 @@
-//! Gragg-Bulirsch-Stoer extrapolation of one substep within a piece: the modified
-//! midpoint rule with 2, 4, ..., 16 steps and polynomial extrapolation in h^2, to a
-//! relative 1e-12. The midpoint samples also show where a limit may be touched inside the
+//! Extrapolation of one substep within a piece, to a relative 1e-12: Gragg-Bulirsch-Stoer
+//! (the modified midpoint rule with 2, 4, ..., 16 steps, polynomial extrapolation in h^2),
+//! or for a stiff step the linearly implicit rows of [`super::implicit`] (extrapolation
+//! in h). The midpoint samples also show where a limit may be touched inside the
 //! substep ([`super::events`]).
 
 use super::events::{Interior, InteriorSearch};
+use super::implicit::IMPLICIT_SEQUENCE;
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
 
 /// Midpoint substep counts of the extrapolation rows.
 const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
+
+/// One row's end, where a limit may have been touched inside it (the first sample past
+/// the tolerance, the sample closest to it), and its sample spacing.
+pub(super) type Row = (Vector, Option<Interior>, Option<Interior>, f64);
 /// Relative accuracy of each substep.
 const TOLERANCE: f64 = 1e-12;
 /// A few rounding units: the error floor relative to the largest entry.
@@ -28,7 +34,7 @@ impl SlidingStep<'_> {
         length: f64,
         n: usize,
         modes: &Modes,
-    ) -> (Vector, Option<Interior>, Option<Interior>, f64) {
+    ) -> Row {
         let h = length / n as f64;
         let mut previous = *z;
         let mut current = *z;
@@ -72,27 +78,11 @@ impl SlidingStep<'_> {
         self.substep_by(t, z, length, modes, true)
     }
 
-    /// A substep by the method the piece uses now ([`SlidingStep::stiff`]).
-    fn substep_by(
-        &self,
-        t: f64,
-        z: &Vector,
-        length: f64,
-        modes: &Modes,
-        look_inside: bool,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        if self.stiff.get() {
-            self.extrapolate_implicit(t, z, length, modes, look_inside)
-        } else {
-            self.extrapolate(t, z, length, modes, look_inside)
-        }
-    }
-
     /// The largest difference between two rows' extrapolated values, relative to the
     /// tolerance: of each entry and the deflection scale, and never below the rounding of
     /// the largest entry (an entry decaying to zero next to a velocity of metres per
     /// second cannot be resolved further). At most 1: accurate.
-    pub(super) fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
+    fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
         let floor = ROUNDING * z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         (0..SIZE)
             .map(|c| {
@@ -102,10 +92,11 @@ impl SlidingStep<'_> {
             .fold(0.0, f64::max)
     }
 
-    /// One extrapolated substep; `None` if it did not reach the tolerance. Also returns
-    /// the factor by which the next substep may grow, and the first interior point where
-    /// an event value was past the tolerance (from the finest midpoint sequence).
-    fn extrapolate(
+    /// One extrapolated substep by the method of the step ([`SlidingStep::stiff`]);
+    /// `None` if it did not reach the tolerance. Also returns the factor by which the next
+    /// substep may grow, the first interior point where an event value was past the
+    /// tolerance (from the finest row) when `look_inside`, and that row's sample spacing.
+    fn substep_by(
         &self,
         t: f64,
         z: &Vector,
@@ -113,15 +104,38 @@ impl SlidingStep<'_> {
         modes: &Modes,
         look_inside: bool,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        let (start_rates, start_events) = self.rates(t, z, modes);
-        let mut table = [[0.0; SIZE]; SEQUENCE.len()];
-        for j in 0..SEQUENCE.len() {
-            let mut row = [[0.0; SIZE]; SEQUENCE.len()];
+        let start = self.rates(t, z, modes);
+        let start = (&start.0, &start.1);
+        if self.stiff.get() {
+            let jacobian = self.jacobian(t, z, start.0, modes);
+            self.extrapolate(z, &IMPLICIT_SEQUENCE, 1, look_inside, |n| {
+                self.implicit_row(t, z, start, &jacobian, length, n, modes)
+            })
+        } else {
+            self.extrapolate(z, &SEQUENCE, 2, look_inside, |n| {
+                Some(self.midpoint(t, z, start, length, n, modes))
+            })
+        }
+    }
+
+    /// Polynomial extrapolation of the rows `row_of(n)` for the step counts `sequence`,
+    /// whose errors expand in powers of `(length / n)^power`, until two rows agree to the
+    /// tolerance.
+    fn extrapolate<const ROWS: usize>(
+        &self,
+        z: &Vector,
+        sequence: &[usize; ROWS],
+        power: i32,
+        look_inside: bool,
+        mut row_of: impl FnMut(usize) -> Option<Row>,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        let mut table = [[0.0; SIZE]; ROWS];
+        for j in 0..ROWS {
+            let mut row = [[0.0; SIZE]; ROWS];
             let (interior, closest, spacing);
-            (row[0], interior, closest, spacing) =
-                self.midpoint(t, z, (&start_rates, &start_events), length, SEQUENCE[j], modes);
+            (row[0], interior, closest, spacing) = row_of(sequence[j])?;
             for k in 1..=j {
-                let ratio = (SEQUENCE[j] as f64 / SEQUENCE[j - k] as f64).powi(2) - 1.0;
+                let ratio = (sequence[j] as f64 / sequence[j - k] as f64).powi(power) - 1.0;
                 for c in 0..SIZE {
                     row[k][c] = row[k - 1][c] + (row[k - 1][c] - table[k - 1][c]) / ratio;
                 }
@@ -129,8 +143,10 @@ impl SlidingStep<'_> {
             if j >= 2 {
                 let error = self.error_ratio(z, &row[j], &row[j - 1]);
                 if error <= 1.0 {
-                    // Error ~ length^(2j + 1): aim at a third of the tolerance next time.
-                    let growth = 0.9 * (3.0 * error).max(1e-10).powf(-1.0 / (2 * j + 1) as f64);
+                    // Error ~ length^(power j + 1): aim at a third of the tolerance next
+                    // time.
+                    let order = power as usize * j + 1;
+                    let growth = 0.9 * (3.0 * error).max(1e-10).powf(-1.0 / order as f64);
                     // A sample past or close to its limit: the caller maximises the
                     // accurate event value around it.
                     let interior = if look_inside { interior.or(closest) } else { None };
