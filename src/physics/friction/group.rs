@@ -20,62 +20,84 @@
 
 use super::Direction;
 
-/// One group's branch quantities, by [`Direction`]; directions outside the group are
-/// ignored (`present` false).
+/// The most directions a group has: the ellipse's two.
+pub const MAX_MEMBERS: usize = 2;
+
+/// One group's branch quantities: its first `count` directions (by [`Direction`] in
+/// `direction`), each with its deflection, sticking rate, stiffness, damping and limit.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GroupInput {
-    pub present: [bool; Direction::COUNT],
-    pub deflection: [f64; Direction::COUNT],
-    pub sticking_rate: [f64; Direction::COUNT],
-    pub stiffness: [f64; Direction::COUNT],
-    pub damping: [f64; Direction::COUNT],
-    pub limit: [f64; Direction::COUNT],
+    pub count: usize,
+    pub direction: [usize; MAX_MEMBERS],
+    pub deflection: [f64; MAX_MEMBERS],
+    pub sticking_rate: [f64; MAX_MEMBERS],
+    pub stiffness: [f64; MAX_MEMBERS],
+    pub damping: [f64; MAX_MEMBERS],
+    pub limit: [f64; MAX_MEMBERS],
 }
 
-/// What the group does: deflection rates, forces, and the event value.
+/// What the group does: deflection rates and forces by member, and the event value.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GroupOutput {
-    pub rate: [f64; Direction::COUNT],
-    pub force: [f64; Direction::COUNT],
+    pub rate: [f64; MAX_MEMBERS],
+    pub force: [f64; MAX_MEMBERS],
     pub event: f64,
 }
 
+/// Forces (or rates) by member.
+pub type Members = [f64; MAX_MEMBERS];
+
 impl GroupInput {
-    fn directions(&self) -> impl Iterator<Item = usize> + '_ {
-        (0..Direction::COUNT).filter(|&k| self.present[k])
+    /// Adds direction `direction` with its constants (deflection and rate zero).
+    pub fn with_member(mut self, direction: Direction, stiffness: f64, damping: f64, limit: f64) -> Self {
+        let m = self.count;
+        self.direction[m] = direction as usize;
+        self.stiffness[m] = stiffness;
+        self.damping[m] = damping;
+        self.limit[m] = limit;
+        self.count += 1;
+        self
+    }
+
+    fn members(&self) -> std::ops::Range<usize> {
+        0..self.count.min(MAX_MEMBERS)
     }
 
     /// Damped if its elements have dampers (both or neither: checked with the parameters).
     pub fn damped(&self) -> bool {
-        self.directions().any(|k| self.damping[k] > 0.0)
+        self.members().any(|k| self.damping[k] > 0.0)
     }
 
     /// `sum (F_k / L_k)^2` for forces `force`.
-    pub fn utilisation(&self, force: &[f64; Direction::COUNT]) -> f64 {
-        self.directions()
-            .map(|k| (force[k] / self.limit[k]).powi(2))
-            .sum()
+    pub fn utilisation(&self, force: &Members) -> f64 {
+        let mut sum = 0.0;
+        for k in self.members() {
+            let ratio = force[k] / self.limit[k];
+            sum += ratio * ratio;
+        }
+        sum
     }
 
     /// The spring forces `K b`.
-    pub fn spring_force(&self) -> [f64; Direction::COUNT] {
-        let mut force = [0.0; Direction::COUNT];
-        for k in self.directions() {
+    pub fn spring_force(&self) -> Members {
+        let mut force = [0.0; MAX_MEMBERS];
+        for k in self.members() {
             force[k] = self.stiffness[k] * self.deflection[k];
         }
         force
     }
 
     /// The force that sticking needs: `K b + Dw g`.
-    pub fn sticking_force(&self) -> [f64; Direction::COUNT] {
+    pub fn sticking_force(&self) -> Members {
         let mut force = self.spring_force();
-        for k in self.directions() {
+        for k in self.members() {
             force[k] += self.damping[k] * self.sticking_rate[k];
         }
         force
     }
 
     /// Rates, forces and event value in the given mode.
+    #[inline]
     pub fn evaluate(&self, sliding: bool) -> GroupOutput {
         if self.damped() {
             self.evaluate_damped(sliding)
@@ -84,6 +106,7 @@ impl GroupInput {
         }
     }
 
+    #[inline]
     fn evaluate_springs(&self, sliding: bool) -> GroupOutput {
         let force = self.spring_force();
         if !sliding {
@@ -93,40 +116,42 @@ impl GroupInput {
                 event: self.utilisation(&force) - 1.0,
             };
         }
-        let (numerator, denominator) = self.flow_projection(&force);
+        // n = F / L^2; lambda = n.K g / n.K n, and the cosine of n and K g.
+        let (mut numerator, mut denominator, mut normal_norm, mut rate_norm) = (0.0, 0.0, 0.0, 0.0);
+        let mut normal = [0.0; MAX_MEMBERS];
+        for k in self.members() {
+            normal[k] = force[k] / (self.limit[k] * self.limit[k]);
+            let force_rate = self.stiffness[k] * self.sticking_rate[k];
+            numerator += normal[k] * force_rate;
+            denominator += normal[k] * self.stiffness[k] * normal[k];
+            normal_norm += normal[k] * normal[k];
+            rate_norm += force_rate * force_rate;
+        }
         let lambda = if denominator > 0.0 {
             numerator / denominator
         } else {
             0.0
         };
-        let mut rate = [0.0; Direction::COUNT];
-        for k in self.directions() {
-            rate[k] = self.sticking_rate[k] - lambda * force[k] / self.limit[k].powi(2);
+        let mut rate = [0.0; MAX_MEMBERS];
+        for k in self.members() {
+            rate[k] = self.sticking_rate[k] - lambda * normal[k];
         }
+        let norm = (normal_norm * rate_norm).sqrt();
+        let cosine = if norm > 0.0 { numerator / norm } else { 0.0 };
         GroupOutput {
             rate,
             force,
-            event: -self.outward_cosine(&force),
+            event: -cosine,
         }
     }
 
-    /// `n.K g` and `n.K n` for the normal `n = F / L^2`.
-    fn flow_projection(&self, force: &[f64; Direction::COUNT]) -> (f64, f64) {
-        let (mut numerator, mut denominator) = (0.0, 0.0);
-        for k in self.directions() {
-            let normal = force[k] / self.limit[k].powi(2);
-            numerator += normal * self.stiffness[k] * self.sticking_rate[k];
-            denominator += normal * self.stiffness[k] * normal;
-        }
-        (numerator, denominator)
-    }
-
-    /// The cosine between the normal and the sticking force rate `K g`: positive while
-    /// sticking would push the force out of the ellipse. Zero without motion.
-    pub fn outward_cosine(&self, force: &[f64; Direction::COUNT]) -> f64 {
+    /// The cosine between the normal `n = F / L^2` and the sticking force rate `K g`:
+    /// positive while sticking would push the force out of the ellipse. Zero without
+    /// motion.
+    pub fn outward_cosine(&self, force: &Members) -> f64 {
         let (mut dot, mut normal_norm, mut rate_norm) = (0.0, 0.0, 0.0);
-        for k in self.directions() {
-            let normal = force[k] / self.limit[k].powi(2);
+        for k in self.members() {
+            let normal = force[k] / (self.limit[k] * self.limit[k]);
             let force_rate = self.stiffness[k] * self.sticking_rate[k];
             dot += normal * force_rate;
             normal_norm += normal * normal;
@@ -150,8 +175,8 @@ impl GroupInput {
             };
         }
         let force = self.closest_point(&trial, utilisation);
-        let mut rate = [0.0; Direction::COUNT];
-        for k in self.directions() {
+        let mut rate = [0.0; MAX_MEMBERS];
+        for k in self.members() {
             rate[k] = (force[k] - self.stiffness[k] * self.deflection[k]) / self.damping[k];
         }
         GroupOutput {
@@ -164,53 +189,85 @@ impl GroupInput {
     /// The point of the ellipse `F_k = T_k / (1 + lambda a_k)`, `a_k = Dw_k / L_k^2`, for a
     /// trial force `T` with `utilisation > 0` (outside the ellipse `lambda > 0`; inside, the
     /// same formula continues with `lambda < 0`).
-    pub fn closest_point(
-        &self,
-        trial: &[f64; Direction::COUNT],
-        utilisation: f64,
-    ) -> [f64; Direction::COUNT] {
-        let mut weight = [0.0; Direction::COUNT];
-        for k in self.directions() {
-            weight[k] = self.damping[k] / self.limit[k].powi(2);
+    pub fn closest_point(&self, trial: &Members, utilisation: f64) -> Members {
+        let mut weight = [0.0; MAX_MEMBERS];
+        for k in self.members() {
+            weight[k] = self.damping[k] / (self.limit[k] * self.limit[k]);
         }
-        let mut directions = self.directions().filter(|&k| trial[k] != 0.0);
-        let first = directions.next();
-        let lambda = match (first, directions.next()) {
+        let mut moving = self.members().filter(|&k| trial[k] != 0.0);
+        let first = moving.next();
+        let lambda = match (first, moving.next()) {
             // One direction (or equal weights): the ellipse scales T radially.
             (Some(k), None) => (utilisation.sqrt() - 1.0) / weight[k],
             (Some(k), Some(j)) if weight[k] == weight[j] => (utilisation.sqrt() - 1.0) / weight[k],
             (None, _) => 0.0,
-            // phi(lambda) = sum (T_k / (L_k (1 + lambda a_k)))^2 - 1 is convex and falls.
-            // At lambda0 = (sqrt(u) - 1) / max a it is >= 0, so Newton from there rises
-            // monotonically to the root, with every 1 + lambda a_k > 0.
             _ => {
-                let largest = self.directions().map(|k| weight[k]).fold(0.0, f64::max);
-                let mut lambda = (utilisation.sqrt() - 1.0) / largest;
-                for _ in 0..100 {
-                    let (mut phi, mut slope) = (-1.0, 0.0);
-                    for k in self.directions() {
-                        let shrink = 1.0 / (1.0 + lambda * weight[k]);
-                        let ratio = trial[k] / self.limit[k] * shrink;
-                        phi += ratio * ratio;
-                        slope -= 2.0 * ratio * ratio * weight[k] * shrink;
-                    }
-                    let next = lambda - phi / slope;
-                    if next.partial_cmp(&lambda) != Some(std::cmp::Ordering::Greater)
-                        || next - lambda <= 1e-16 * next.abs()
-                    {
-                        lambda = next.max(lambda);
-                        break;
-                    }
-                    lambda = next;
-                }
-                lambda
+                let largest = self.members().map(|k| weight[k]).fold(0.0, f64::max);
+                let start = (utilisation.sqrt() - 1.0) / largest;
+                self.lambda_by_norm(trial, &weight, start, largest)
+                    .unwrap_or_else(|| self.lambda_monotone(trial, &weight, start))
             }
         };
-        let mut force = [0.0; Direction::COUNT];
-        for k in self.directions() {
+        let mut force = [0.0; MAX_MEMBERS];
+        for k in self.members() {
             force[k] = trial[k] / (1.0 + lambda * weight[k]);
         }
         force
+    }
+
+    /// The multiplier of [`GroupInput::closest_point`] by Newton's method on
+    /// `S(lambda)^(-1/2) = 1`, `S = sum (T_k / (L_k (1 + lambda a_k)))^2`: linear in lambda
+    /// where the weights are equal, and close to it where they differ, so two or three
+    /// steps reach rounding. `None` if it leaves the admissible range or does not settle.
+    fn lambda_by_norm(&self, trial: &Members, weight: &Members, start: f64, largest: f64) -> Option<f64> {
+        let mut lambda = start;
+        for _ in 0..12 {
+            let (mut sum, mut slope) = (0.0, 0.0);
+            for k in self.members() {
+                let shrink = 1.0 / (1.0 + lambda * weight[k]);
+                if shrink.is_nan() || shrink <= 0.0 {
+                    return None;
+                }
+                let ratio = trial[k] / self.limit[k] * shrink;
+                sum += ratio * ratio;
+                slope -= 2.0 * ratio * ratio * weight[k] * shrink;
+            }
+            // h = S^(-1/2) - 1, h' = -S' / (2 S^(3/2)): the step -h / h'.
+            let step = 2.0 * sum * (1.0 - sum.sqrt()) / slope;
+            if !step.is_finite() {
+                return None;
+            }
+            lambda += step;
+            // The forces T_k / (1 + lambda a_k) are then settled to rounding.
+            if (step * largest).abs() <= 1e-15 * (1.0 + (lambda * largest).abs()) {
+                return Some(lambda);
+            }
+        }
+        None
+    }
+
+    /// The multiplier of [`GroupInput::closest_point`] by Newton's method on
+    /// `phi(lambda) = S(lambda) - 1`, convex and falling: from `start`, where `phi >= 0`,
+    /// it rises monotonically to the root, with every `1 + lambda a_k > 0`.
+    fn lambda_monotone(&self, trial: &Members, weight: &Members, start: f64) -> f64 {
+        let mut lambda = start;
+        for _ in 0..100 {
+            let (mut phi, mut slope) = (-1.0, 0.0);
+            for k in self.members() {
+                let shrink = 1.0 / (1.0 + lambda * weight[k]);
+                let ratio = trial[k] / self.limit[k] * shrink;
+                phi += ratio * ratio;
+                slope -= 2.0 * ratio * ratio * weight[k] * shrink;
+            }
+            let next = lambda - phi / slope;
+            if next.partial_cmp(&lambda) != Some(std::cmp::Ordering::Greater)
+                || next - lambda <= 1e-16 * next.abs()
+            {
+                return next.max(lambda);
+            }
+            lambda = next;
+        }
+        lambda
     }
 }
 
@@ -221,12 +278,13 @@ mod tests {
 
     fn planar(b: [f64; 2], g: [f64; 2], damping: f64) -> GroupInput {
         GroupInput {
-            present: [true, true, false],
-            deflection: [b[0], b[1], 0.0],
-            sticking_rate: [g[0], g[1], 0.0],
-            stiffness: [1000.0, 400.0, 0.0],
-            damping: [damping, 2.0 * damping, 0.0],
-            limit: [30.0, 20.0, 1.0],
+            count: 2,
+            direction: [Direction::Longitudinal as usize, Direction::Lateral as usize],
+            deflection: b,
+            sticking_rate: g,
+            stiffness: [1000.0, 400.0],
+            damping: [damping, 2.0 * damping],
+            limit: [30.0, 20.0],
         }
     }
 
@@ -281,6 +339,45 @@ mod tests {
                 assert!(out.force[k].abs() <= trial[k].abs() && out.force[k] * trial[k] >= 0.0);
                 let damper = input.damping[k] * out.rate[k];
                 assert!((input.stiffness[k] * input.deflection[k] + damper - out.force[k]).abs() < 1e-10);
+            }
+        }
+    }
+
+    /// The fast multiplier agrees with the monotone one to rounding, near the ellipse and
+    /// far outside it, for weights close together and far apart.
+    #[test]
+    fn both_multipliers_find_the_same_point() {
+        for damping_ratio in [1.001, 2.0, 30.0, 1e4] {
+            for (b, g) in [
+                ([0.02, 0.03], [5.0, -3.0]),
+                ([0.03, 0.0001], [0.01, 0.001]),
+                ([-0.04, 0.01], [-1.0, 200.0]),
+                ([0.0301, 0.0001], [1e-6, 0.0]),
+            ] {
+                let mut input = planar(b, g, 10.0);
+                input.damping[1] = damping_ratio * input.damping[0];
+                let trial = input.sticking_force();
+                let utilisation = input.utilisation(&trial);
+                if utilisation <= 1.0 {
+                    continue;
+                }
+                let weight = [0, 1].map(|k| input.damping[k] / (input.limit[k] * input.limit[k]));
+                let largest = weight[0].max(weight[1]);
+                let start = (utilisation.sqrt() - 1.0) / largest;
+                let fast = input
+                    .lambda_by_norm(&trial, &weight, start, largest)
+                    .expect("settles");
+                let monotone = input.lambda_monotone(&trial, &weight, start);
+                for k in 0..2 {
+                    let (a, m) = (
+                        trial[k] / (1.0 + fast * weight[k]),
+                        trial[k] / (1.0 + monotone * weight[k]),
+                    );
+                    assert!(
+                        (a - m).abs() <= 1e-13 * input.limit[k],
+                        "{damping_ratio} {b:?}: {a} against {m}"
+                    );
+                }
             }
         }
     }

@@ -157,8 +157,103 @@ impl SlidingStep<'_> {
         }
     }
 
+    /// The earliest mode change within the substep `(t, z, length, modes)` among the
+    /// `candidate` groups and branches (those whose event value ends past the tolerance):
+    /// its time from `t`, group, branch, and the state there where it was computed. A
+    /// candidate past its tolerance at the start changes at once. Otherwise each candidate's
+    /// crossing is estimated from its event value and rate at the start (one difference
+    /// for all), the earliest estimate is located, and a candidate already past its
+    /// tolerance there crossed before it and is located in turn.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn earliest_crossing(
+        &self,
+        (t, z, length, modes): (f64, &Vector, f64, &Modes),
+        (start_rates, start_events, end_events): (&Vector, &Events, &Events),
+        candidate: impl Fn(usize, usize) -> bool,
+    ) -> Option<(f64, usize, usize, Option<Vector>)> {
+        let branches = self.friction.branches.len();
+        let candidates = || (0..Group::COUNT).flat_map(move |g| (0..branches).map(move |i| (g, i)));
+        let mut any = false;
+        for (g, i) in candidates().filter(|&(g, i)| candidate(g, i)) {
+            if start_events[g][i] > EVENT_TOLERANCE {
+                return Some((0.0, g, i, None));
+            }
+            any = true;
+        }
+        if !any {
+            return None;
+        }
+        let level = 0.5 * EVENT_TOLERANCE;
+        let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
+        let estimate = |g: usize, i: usize, end: f64, length: f64| {
+            let (start, slope) = (start_events[g][i], slopes[g][i]);
+            let newton = (slope > 0.0).then(|| (1.5 * level - start) / slope);
+            newton
+                .filter(|&tau| tau > 0.0 && tau < length)
+                .unwrap_or_else(|| length * (level - start) / (end - start))
+        };
+        let (mut g, mut i) = candidates().filter(|&(g, i)| candidate(g, i)).min_by(|a, b| {
+            let (ea, eb) = (
+                estimate(a.0, a.1, end_events[a.0][a.1], length),
+                estimate(b.0, b.1, end_events[b.0][b.1], length),
+            );
+            ea.total_cmp(&eb)
+        })?;
+        let (mut hi, mut end) = (length, end_events[g][i]);
+        for _ in 0..Group::COUNT * MAX_BRANCHES {
+            let guess = estimate(g, i, end, hi);
+            let (at, z_at) = self.crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), guess);
+            let Some(z_at) = z_at else {
+                return Some((at, g, i, None));
+            };
+            let events_at = self.events(t + at, &z_at, modes);
+            let earlier = candidates()
+                .find(|&(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
+            match earlier {
+                None => return Some((at, g, i, Some(z_at))),
+                Some((h, j)) => {
+                    (g, i, hi, end) = (h, j, at, events_at[h][j]);
+                }
+            }
+        }
+        let at = self
+            .crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), hi)
+            .0;
+        Some((at, g, i, None))
+    }
+
+    /// The rates of every group's event value along the motion at the start of a
+    /// substep, by one forward difference over a time short against its `length`.
+    fn event_rates(
+        &self,
+        t: f64,
+        z: &Vector,
+        rates: &Vector,
+        events: &Events,
+        modes: &Modes,
+        length: f64,
+    ) -> Events {
+        let delta = 1e-8 * length;
+        let mut moved = *z;
+        for c in 0..self.size() {
+            moved[c] += delta * rates[c];
+        }
+        let moved_events = self.events(t + delta, &moved, modes);
+        let mut slopes = [[0.0; MAX_BRANCHES]; Group::COUNT];
+        for g in 0..Group::COUNT {
+            for i in 0..MAX_BRANCHES {
+                slopes[g][i] = (moved_events[g][i] - events[g][i]) / delta;
+            }
+        }
+        slopes
+    }
+
     /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
-    /// event tolerance.
+    /// event tolerance, and the state there if it was computed: Newton's method on the
+    /// accurate solution (from `guess`, the event's rate along the motion by a difference),
+    /// kept inside a shrinking bracket (regula falsi, Illinois, where a Newton step would
+    /// leave it).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn crossing(
         &self,
         t: f64,
@@ -167,31 +262,39 @@ impl SlidingStep<'_> {
         modes: &Modes,
         (g, i): (usize, usize),
         (start, end): (f64, f64),
-    ) -> f64 {
+        guess: f64,
+    ) -> (f64, Option<Vector>) {
         let level = 0.5 * EVENT_TOLERANCE;
-        let (mut lo, mut hi) = (0.0, length);
+        // Accepted: an event value in (level, 2 level]; Newton aims at its middle.
+        let aim = 1.5 * level;
+        let (mut lo, mut hi, mut z_hi) = (0.0, length, None);
         let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
+        let mut guess = Some(guess);
         let mut side = 0;
         for _ in 0..80 {
             if hi - lo <= 1e-14 * length.max(f64::MIN_POSITIVE) {
                 break;
             }
-            let mut tau = (lo * e_hi - hi * e_lo) / (e_hi - e_lo);
+            let mut tau = match guess {
+                Some(tau) if tau > lo && tau < hi => tau,
+                _ => (lo * e_hi - hi * e_lo) / (e_hi - e_lo),
+            };
             if !(tau > lo && tau < hi) {
                 tau = 0.5 * (lo + hi);
             }
             let Some(z_tau) = self.substep_plain(t, z, tau, modes) else {
                 break;
             };
-            let e = self.events(t + tau, &z_tau, modes)[g][i] - level;
+            let (rates, events) = self.rates(t + tau, &z_tau, modes);
+            let value = events[g][i];
+            let e = value - level;
             // Past the crossing by less than the event tolerance itself: as close as
             // the event is defined.
             if e > 0.0 && e <= level {
-                hi = tau;
-                break;
+                return (tau, Some(z_tau));
             }
             if e > 0.0 {
-                hi = tau;
+                (hi, z_hi) = (tau, Some(z_tau));
                 e_hi = e;
                 if side == 1 {
                     e_lo *= 0.5;
@@ -205,7 +308,9 @@ impl SlidingStep<'_> {
                 }
                 side = -1;
             }
+            let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length)[g][i];
+            guess = (slope > 0.0).then(|| tau + (aim - value) / slope);
         }
-        hi
+        (hi, z_hi)
     }
 }

@@ -36,25 +36,26 @@ impl SlidingStep<'_> {
         modes: &Modes,
     ) -> Row {
         let h = length / n as f64;
+        let size = self.size();
         let mut previous = *z;
         let mut current = *z;
         let mut search = InteriorSearch::new(start_events);
-        for (c, r) in current.iter_mut().zip(start_rates) {
-            *c += h * r;
+        for c in 0..size {
+            current[c] += h * start_rates[c];
         }
         for m in 1..n {
             let (rates, events) = self.rates(t + m as f64 * h, &current, modes);
             search.sample(m, h, &events);
             let mut next = previous;
-            for ((nx, r), _) in next.iter_mut().zip(&rates).zip(0..) {
-                *nx += 2.0 * h * r;
+            for c in 0..size {
+                next[c] += 2.0 * h * rates[c];
             }
             previous = current;
             current = next;
         }
         let (rates, _) = self.rates(t + length, &current, modes);
         let mut out = [0.0; SIZE];
-        for k in 0..SIZE {
+        for k in 0..size {
             out[k] = 0.5 * (current[k] + previous[k] + h * rates[k]);
         }
         let (interior, closest) = search.found();
@@ -83,8 +84,9 @@ impl SlidingStep<'_> {
     /// the largest entry (an entry decaying to zero next to a velocity of metres per
     /// second cannot be resolved further). At most 1: accurate.
     fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
-        let floor = ROUNDING * z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        (0..SIZE)
+        let size = self.size();
+        let floor = ROUNDING * z[..size].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        (0..size)
             .map(|c| {
                 (best[c] - previous[c]).abs()
                     / (TOLERANCE * (self.scale + z[c].abs().max(best[c].abs())) + floor)
@@ -129,19 +131,23 @@ impl SlidingStep<'_> {
         look_inside: bool,
         mut row_of: impl FnMut(usize) -> Option<Row>,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        let size = self.size();
+        // The tableau's last row, overwritten in place as the next one is made.
         let mut table = [[0.0; SIZE]; ROWS];
         for j in 0..ROWS {
-            let mut row = [[0.0; SIZE]; ROWS];
-            let (interior, closest, spacing);
-            (row[0], interior, closest, spacing) = row_of(sequence[j])?;
+            let (mut value, interior, closest, spacing) = row_of(sequence[j])?;
             for k in 1..=j {
                 let ratio = (sequence[j] as f64 / sequence[j - k] as f64).powi(power) - 1.0;
-                for c in 0..SIZE {
-                    row[k][c] = row[k - 1][c] + (row[k - 1][c] - table[k - 1][c]) / ratio;
+                let below = &mut table[k - 1];
+                for c in 0..size {
+                    let next = value[c] + (value[c] - below[c]) / ratio;
+                    below[c] = value[c];
+                    value[c] = next;
                 }
             }
+            table[j] = value;
             if j >= 2 {
-                let error = self.error_ratio(z, &row[j], &row[j - 1]);
+                let error = self.error_ratio(z, &table[j], &table[j - 1]);
                 if error <= 1.0 {
                     // Error ~ length^(power j + 1): aim at a third of the tolerance next
                     // time.
@@ -150,10 +156,9 @@ impl SlidingStep<'_> {
                     // A sample past or close to its limit: the caller maximises the
                     // accurate event value around it.
                     let interior = if look_inside { interior.or(closest) } else { None };
-                    return Some((row[j], growth.clamp(0.2, 4.0), interior, spacing));
+                    return Some((table[j], growth.clamp(0.2, 4.0), interior, spacing));
                 }
             }
-            table = row;
         }
         None
     }

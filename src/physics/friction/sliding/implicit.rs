@@ -11,8 +11,6 @@
 //! extrapolation in `s` ([`super::extrapolation`]) raises the order by one a row, to the
 //! same relative 1e-12 as the explicit substep.
 
-use nalgebra::SMatrix;
-
 use super::events::InteriorSearch;
 use super::extrapolation::Row;
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
@@ -20,22 +18,24 @@ use super::{Events, Modes, SIZE, SlidingStep, Vector};
 /// Step counts of the rows (the harmonic sequence).
 pub(super) const IMPLICIT_SEQUENCE: [usize; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10];
 
-pub(super) type Jacobian = SMatrix<f64, SIZE, SIZE>;
+/// A square matrix over the entries in use of the coupled vector, by row.
+pub(super) type Jacobian = [[f64; SIZE]; SIZE];
 
 impl SlidingStep<'_> {
     /// The Jacobian of the piece's right-hand side at `z` by forward differences, the
     /// increment of each entry a square root of the rounding unit of its size (at least of
     /// the deflection scale).
     pub(super) fn jacobian(&self, t: f64, z: &Vector, rates: &Vector, modes: &Modes) -> Jacobian {
-        let mut jacobian = Jacobian::zeros();
-        for c in 0..SIZE {
+        let size = self.size();
+        let mut jacobian = [[0.0; SIZE]; SIZE];
+        for c in 0..size {
             let increment = 1.5e-8 * z[c].abs().max(self.scale);
             let mut moved = *z;
             moved[c] += increment;
             let increment = moved[c] - z[c];
             let (moved_rates, _) = self.rates(t, &moved, modes);
-            for r in 0..SIZE {
-                jacobian[(r, c)] = (moved_rates[r] - rates[r]) / increment;
+            for r in 0..size {
+                jacobian[r][c] = (moved_rates[r] - rates[r]) / increment;
             }
         }
         jacobian
@@ -55,24 +55,128 @@ impl SlidingStep<'_> {
         n: usize,
         modes: &Modes,
     ) -> Option<Row> {
+        let size = self.size();
         let s = length / n as f64;
-        let lu = (Jacobian::identity() - jacobian * s).lu();
-        let mut current = nalgebra::SVector::<f64, SIZE>::from_column_slice(z);
-        let mut rates = nalgebra::SVector::<f64, SIZE>::from_column_slice(start_rates);
+        let mut matrix = [[0.0; SIZE]; SIZE];
+        for r in 0..size {
+            for c in 0..size {
+                matrix[r][c] = -s * jacobian[r][c];
+            }
+            matrix[r][r] += 1.0;
+        }
+        let lu = Factors::new(matrix, size)?;
+        let mut current = *z;
+        let mut rates = *start_rates;
         let mut search = InteriorSearch::new(start_events);
         for k in 0..n {
             if k > 0 {
-                let (next_rates, events) = self.rates(t + k as f64 * s, &current.into(), modes);
+                let events;
+                (rates, events) = self.rates(t + k as f64 * s, &current, modes);
                 search.sample(k, s, &events);
-                rates = nalgebra::SVector::<f64, SIZE>::from_column_slice(&next_rates);
             }
-            let change = lu.solve(&(rates * s))?;
-            current += change;
+            for r in 0..size {
+                rates[r] *= s;
+            }
+            let change = lu.solve(rates);
+            for r in 0..size {
+                current[r] += change[r];
+            }
         }
         let (interior, closest) = search.found();
-        let end: Vector = current.into();
-        end.iter()
+        current[..size]
+            .iter()
             .all(|v| v.is_finite())
-            .then_some((end, interior, closest, s))
+            .then_some((current, interior, closest, s))
+    }
+}
+
+/// The LU factors of a matrix over the first `size` entries, with partial pivoting.
+struct Factors {
+    lu: [[f64; SIZE]; SIZE],
+    pivots: [usize; SIZE],
+    size: usize,
+}
+
+impl Factors {
+    /// `None` if the matrix is singular (or not finite).
+    fn new(mut lu: [[f64; SIZE]; SIZE], size: usize) -> Option<Self> {
+        let mut pivots = [0; SIZE];
+        for k in 0..size {
+            let p = (k..size).fold(k, |best, r| {
+                if lu[r][k].abs() > lu[best][k].abs() {
+                    r
+                } else {
+                    best
+                }
+            });
+            let pivot = lu[p][k];
+            if !(pivot != 0.0 && pivot.is_finite()) {
+                return None;
+            }
+            lu.swap(k, p);
+            pivots[k] = p;
+            for r in k + 1..size {
+                let factor = lu[r][k] / pivot;
+                lu[r][k] = factor;
+                for c in k + 1..size {
+                    lu[r][c] -= factor * lu[k][c];
+                }
+            }
+        }
+        Some(Self { lu, pivots, size })
+    }
+
+    fn solve(&self, mut b: Vector) -> Vector {
+        let (lu, size) = (&self.lu, self.size);
+        // P A = L U: the row exchanges in order, then L and U.
+        for k in 0..size {
+            b.swap(k, self.pivots[k]);
+        }
+        for k in 0..size {
+            for r in k + 1..size {
+                b[r] -= lu[r][k] * b[k];
+            }
+        }
+        for k in (0..size).rev() {
+            let mut sum = b[k];
+            for c in k + 1..size {
+                sum -= lu[k][c] * b[c];
+            }
+            b[k] = sum / lu[k][k];
+        }
+        b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The factors solve a system that needs row exchanges, to rounding.
+    #[test]
+    fn factors_solve_with_row_exchanges() {
+        let size = 4;
+        let rows = [
+            [0.0, 2.0, 1.0, -1.0],
+            [3.0, 0.5, 0.0, 2.0],
+            [1.0, 1.0, 4.0, 0.0],
+            [-2.0, 0.0, 1.0, 5.0],
+        ];
+        let mut matrix = [[0.0; SIZE]; SIZE];
+        for r in 0..size {
+            matrix[r][..size].copy_from_slice(&rows[r]);
+        }
+        let solution = [1.0, -2.0, 0.5, 3.0];
+        let mut b = [0.0; SIZE];
+        for r in 0..size {
+            b[r] = (0..size).map(|c| rows[r][c] * solution[c]).sum();
+        }
+        let x = Factors::new(matrix, size).expect("regular").solve(b);
+        for r in 0..size {
+            assert!((x[r] - solution[r]).abs() < 1e-14, "{r}: {}", x[r]);
+        }
+        let mut singular = matrix;
+        singular[3] = [0.0; SIZE];
+        assert!(Factors::new(singular, size).is_none());
     }
 }

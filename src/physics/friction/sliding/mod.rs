@@ -28,24 +28,129 @@ mod implicit;
 
 use std::cell::Cell;
 
-use super::group::{GroupInput, GroupOutput};
+use super::group::{GroupInput, GroupOutput, MAX_MEMBERS};
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
 use events::{EVENT_TOLERANCE, MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 
-/// The model's states, then the branch deflections by direction and branch.
+/// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
 type Vector = [f64; SIZE];
-
-fn branch_index(direction: usize, branch: usize) -> usize {
-    MAX_STATES + direction * MAX_BRANCHES + branch
-}
 
 /// At most this many substeps and events per step (a safeguard: a step takes a handful).
 const MAX_SUBSTEPS: usize = 50_000;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
+
+/// Where each quantity of a step sits in the coupled vector: first the model's states
+/// that carry no contact element (each with its own equation), then every branch
+/// deflection of each element. An element's own state is the weighted sum of its branches,
+/// so it has no entry: the vector is as short as the model and law make it (two entries
+/// for RLT with Coulomb, up to twelve), which is what the substeps, the error control and
+/// the stiff method's Jacobian cost in proportion to.
+#[derive(Clone, Copy, Debug, Default)]
+struct Layout {
+    /// The model state of each of the first `free_count` entries.
+    free: [usize; MAX_STATES],
+    free_count: usize,
+    /// By present element: its direction, model state and first branch entry.
+    elements: [(usize, usize, usize); Direction::COUNT],
+    element_count: usize,
+    /// Branches per element, and every branch's `w_i`.
+    branches: usize,
+    weights: [f64; MAX_BRANCHES],
+    /// Entries in use.
+    size: usize,
+}
+
+impl Layout {
+    fn new(friction: &Friction, states: usize) -> Self {
+        let mut layout = Layout {
+            branches: friction.branches.len(),
+            ..Layout::default()
+        };
+        for (i, branch) in friction.branches.iter().enumerate() {
+            layout.weights[i] = branch.stiffness_fraction;
+        }
+        let carries_element = |k: usize| friction.elements.iter().flatten().any(|e| e.state == k);
+        for k in (0..states).filter(|&k| !carries_element(k)) {
+            layout.free[layout.free_count] = k;
+            layout.free_count += 1;
+        }
+        let mut next = layout.free_count;
+        for (d, element) in friction.elements.iter().enumerate() {
+            if let Some(element) = element {
+                layout.elements[layout.element_count] = (d, element.state, next);
+                layout.element_count += 1;
+                next += layout.branches;
+            }
+        }
+        layout.size = next;
+        layout
+    }
+
+    fn elements(&self) -> &[(usize, usize, usize)] {
+        &self.elements[..self.element_count]
+    }
+
+    /// The entry of branch `i` of direction `d`'s element, if the model has one.
+    fn branch_entry(&self, d: usize, i: usize) -> Option<usize> {
+        self.elements().iter().find(|e| e.0 == d).map(|e| e.2 + i)
+    }
+
+    /// The model's states (or rates) of a coupled vector (or its rates): the free entries,
+    /// and each element's state `sum w_i b_i`.
+    fn model_states(&self, z: &Vector) -> StateVector {
+        let mut x = StateVector::zeros();
+        for j in 0..self.free_count {
+            x[self.free[j]] = z[j];
+        }
+        for &(_, k, first) in self.elements() {
+            let mut sum = 0.0;
+            for i in 0..self.branches {
+                sum += self.weights[i] * z[first + i];
+            }
+            x[k] = sum;
+        }
+        x
+    }
+
+    fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
+        let mut z = [0.0; SIZE];
+        for j in 0..self.free_count {
+            z[j] = x[self.free[j]];
+        }
+        for &(d, k, first) in self.elements() {
+            for i in 0..self.branches {
+                z[first + i] = x[k] + sliders.offsets[d][i];
+            }
+        }
+        z
+    }
+
+    /// The model's states and the branch offsets of `z` (linear: also rates from rates).
+    fn unpack(&self, z: &Vector, sliders: &mut SliderState) -> StateVector {
+        let x = self.model_states(z);
+        for &(d, k, first) in self.elements() {
+            for i in 0..self.branches {
+                sliders.offsets[d][i] = z[first + i] - x[k];
+            }
+        }
+        x
+    }
+}
+
+/// One group's branch `i` in the coupled vector: its law's constants, and for each
+/// member the entry of its deflection and its element's model state.
+#[derive(Clone, Copy, Debug, Default)]
+struct Slot {
+    group: usize,
+    branch: usize,
+    input: GroupInput,
+    entries: [usize; MAX_MEMBERS],
+    states: [usize; MAX_MEMBERS],
+}
 
 /// The coupled system of one step: the model at its operating point with held or ramped
 /// driving inputs, and its branches at the step's limits.
@@ -57,9 +162,13 @@ pub struct SlidingStep<'a> {
     pub input_rates: DrivingVector,
     /// The deflection scale of the error tolerance ([`SlidingStep::deflection_scale`]).
     scale: f64,
-    /// Each group and branch with its constants filled in (present directions, branch
-    /// stiffness, damping and limit): what stays fixed over the step.
-    templates: [[GroupInput; MAX_BRANCHES]; Group::COUNT],
+    layout: Layout,
+    /// Each group and branch with a member (a present direction with a limit), with its
+    /// constants filled in: what stays fixed over the step. A direction with a zero limit
+    /// is left out: its branch deflections stay at zero ([`SlidingStep::prepare`] puts
+    /// them there).
+    slots: [Slot; Group::COUNT * MAX_BRANCHES],
+    slot_count: usize,
     /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
@@ -78,21 +187,34 @@ impl<'a> SlidingStep<'a> {
         (inputs, input_rates): (DrivingVector, DrivingVector),
         start_scale: f64,
     ) -> Self {
-        let mut templates = [[GroupInput::default(); MAX_BRANCHES]; Group::COUNT];
-        for group in Group::ALL {
+        let layout = Layout::new(friction, system.states);
+        let mut slots = [Slot::default(); Group::COUNT * MAX_BRANCHES];
+        let mut slot_count = 0;
+        for group in friction.groups() {
             for (i, branch) in friction.branches.iter().enumerate() {
-                let input = &mut templates[group as usize][i];
+                let mut slot = Slot {
+                    group: group as usize,
+                    branch: i,
+                    ..Slot::default()
+                };
                 for &direction in group.directions() {
                     let d = direction as usize;
-                    // A direction with a zero limit is left out: its branch deflection
-                    // stays at zero ([`SlidingStep::prepare`] puts it there).
                     let Some(element) = friction.elements[d].filter(|_| limits.0[d] > 0.0) else {
                         continue;
                     };
-                    input.present[d] = true;
-                    input.stiffness[d] = branch.stiffness_fraction * element.stiffness;
-                    input.damping[d] = branch.stiffness_fraction * element.damping;
-                    input.limit[d] = branch.limit_fraction * limits.0[d];
+                    let m = slot.input.count;
+                    slot.entries[m] = layout.branch_entry(d, i).expect("a present element");
+                    slot.states[m] = element.state;
+                    slot.input = slot.input.with_member(
+                        direction,
+                        branch.stiffness_fraction * element.stiffness,
+                        branch.stiffness_fraction * element.damping,
+                        branch.limit_fraction * limits.0[d],
+                    );
+                }
+                if slot.input.count > 0 {
+                    slots[slot_count] = slot;
+                    slot_count += 1;
                 }
             }
         }
@@ -103,82 +225,53 @@ impl<'a> SlidingStep<'a> {
             inputs,
             input_rates,
             scale: Self::deflection_scale(friction, &limits, start_scale),
-            templates,
+            layout,
+            slots,
+            slot_count,
             stiff: Cell::new(false),
         }
     }
 
-    fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
-        let mut z = [0.0; SIZE];
-        z[..MAX_STATES].copy_from_slice(x.as_slice());
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            if let Some(element) = element {
-                for i in 0..self.friction.branches.len() {
-                    z[branch_index(d, i)] = x[element.state] + sliders.offsets[d][i];
-                }
-            }
-        }
-        z
+    /// Entries of the coupled vector in use.
+    fn size(&self) -> usize {
+        self.layout.size
     }
 
-    /// The model's states and the branch offsets of `z`.
-    fn unpack(&self, z: &Vector, sliders: &mut SliderState) -> StateVector {
-        let x = self.model_states(z);
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            if let Some(element) = element {
-                for i in 0..self.friction.branches.len() {
-                    sliders.offsets[d][i] = z[branch_index(d, i)] - x[element.state];
-                }
-            }
-        }
-        x
+    fn slots(&self) -> &[Slot] {
+        &self.slots[..self.slot_count]
     }
 
-    /// `sum w_i v_i` over the branches of direction `d` in `values` (deflections or rates).
-    fn weighted_over_branches(&self, values: &Vector, d: usize) -> f64 {
-        self.friction
-            .branches
-            .iter()
-            .enumerate()
-            .map(|(i, b)| b.stiffness_fraction * values[branch_index(d, i)])
-            .sum()
-    }
-
-    /// The model's states with each element's state the weighted sum of its branches.
-    fn model_states(&self, z: &Vector) -> StateVector {
-        let mut x = StateVector::from_column_slice(&z[..MAX_STATES]);
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            if let Some(element) = element {
-                x[element.state] = self.weighted_over_branches(z, d);
-            }
-        }
-        x
-    }
-
-    /// One group's branch `i` at model rates `x_rates` (whose element rows hold the
-    /// sticking rate of `U`). A direction with a zero limit is left out: its branch
-    /// deflection stays at zero ([`SlidingStep::prepare`] puts it there).
-    pub fn group_input(
-        &self,
-        group: Group,
-        i: usize,
-        x: &StateVector,
-        x_rates: &StateVector,
-        z: &Vector,
-    ) -> GroupInput {
-        let mut input = self.templates[group as usize][i];
-        for &direction in group.directions() {
-            let d = direction as usize;
-            if !input.present[d] {
-                continue;
-            }
-            let k = self.friction.elements[d].as_ref().expect("present").state;
-            let b = z[branch_index(d, i)];
-            input.deflection[d] = b;
-            // The model's rate of U with b in its own relaxation term.
-            input.sticking_rate[d] = x_rates[k] + self.system.a[(k, k)] * (b - x[k]);
+    /// A slot's group input at deflections `z`, with the model's states `x` and their
+    /// rates `x_rates` (whose element rows hold the sticking rate of `U`): each member's
+    /// sticking rate is the model's rate of `U` with `b` in its own relaxation term.
+    #[inline]
+    fn slot_input(&self, slot: &Slot, x: &StateVector, x_rates: &StateVector, z: &Vector) -> GroupInput {
+        let mut input = slot.input;
+        for m in 0..input.count.min(MAX_MEMBERS) {
+            let (b, k) = (z[slot.entries[m]], slot.states[m]);
+            input.deflection[m] = b;
+            input.sticking_rate[m] = x_rates[k] + self.system.a[(k, k)] * (b - x[k]);
         }
         input
+    }
+
+    /// `A x + B u` over the model's own states (the rest stay zero): the system's
+    /// `state_rates` without the unused rows and columns of the fixed-size storage.
+    #[inline]
+    fn model_rates(&self, x: &StateVector, u: &DrivingVector) -> StateVector {
+        let n = self.system.states.min(MAX_STATES);
+        // Column-major storage: entry (i, j) at i + MAX_STATES j.
+        let (a, b) = (self.system.a.as_slice(), self.system.b.as_slice());
+        let mut rates = StateVector::zeros();
+        for i in 0..n {
+            let mut states = a[i] * x[0];
+            for j in 1..n {
+                states += a[i + MAX_STATES * j] * x[j];
+            }
+            let inputs = b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
+            rates[i] = states + inputs;
+        }
+        rates
     }
 
     fn inputs_at(&self, t: f64) -> DrivingVector {
@@ -187,31 +280,23 @@ impl<'a> SlidingStep<'a> {
 
     /// Rates of every entry, and the groups' event values.
     fn rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
-        let x = self.model_states(z);
+        let layout = &self.layout;
+        let x = layout.model_states(z);
         let u = self.inputs_at(t);
-        let mut x_rates = self.system.state_rates(&x, &u);
+        let x_rates = self.model_rates(&x, &u);
         let mut rates = [0.0; SIZE];
+        for j in 0..layout.free_count {
+            rates[j] = x_rates[layout.free[j]];
+        }
         let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
-        for group in self.friction.groups() {
-            for i in 0..self.friction.branches.len() {
-                let out: GroupOutput = self
-                    .group_input(group, i, &x, &x_rates, z)
-                    .evaluate(modes[group as usize][i]);
-                for &direction in group.directions() {
-                    let d = direction as usize;
-                    if self.friction.elements[d].is_some() {
-                        rates[branch_index(d, i)] = out.rate[d];
-                    }
-                }
-                events[group as usize][i] = out.event;
+        for slot in self.slots() {
+            let input = self.slot_input(slot, &x, &x_rates, z);
+            let out: GroupOutput = input.evaluate(modes[slot.group][slot.branch]);
+            for m in 0..input.count.min(MAX_MEMBERS) {
+                rates[slot.entries[m]] = out.rate[m];
             }
+            events[slot.group][slot.branch] = out.event;
         }
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            if let Some(element) = element {
-                x_rates[element.state] = self.weighted_over_branches(&rates, d);
-            }
-        }
-        rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
         (rates, events)
     }
 
@@ -221,25 +306,19 @@ impl<'a> SlidingStep<'a> {
 
     /// Puts each sliding spring group back on its ellipse (it drifts by rounding).
     fn hold_on_limits(&self, z: &mut Vector, modes: &Modes) {
-        let x = self.model_states(z);
-        for group in self.friction.groups() {
-            for i in 0..self.friction.branches.len() {
-                if !modes[group as usize][i] {
-                    continue;
-                }
-                let input = self.group_input(group, i, &x, &x, z);
-                if input.damped() {
-                    continue;
-                }
-                let utilisation = input.utilisation(&input.spring_force());
-                if utilisation > 0.0 {
-                    let shrink = utilisation.sqrt().recip();
-                    for &direction in group.directions() {
-                        let d = direction as usize;
-                        if input.present[d] {
-                            z[branch_index(d, i)] *= shrink;
-                        }
-                    }
+        for slot in self.slots() {
+            if !modes[slot.group][slot.branch] || slot.input.damped() {
+                continue;
+            }
+            let mut input = slot.input;
+            for m in 0..input.count.min(MAX_MEMBERS) {
+                input.deflection[m] = z[slot.entries[m]];
+            }
+            let utilisation = input.utilisation(&input.spring_force());
+            if utilisation > 0.0 {
+                let shrink = utilisation.sqrt().recip();
+                for m in 0..input.count.min(MAX_MEMBERS) {
+                    z[slot.entries[m]] *= shrink;
                 }
             }
         }
@@ -269,7 +348,7 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
         h: f64,
     ) -> Result<(), NotConverged> {
-        let mut z = self.pack(x, sliders);
+        let mut z = self.layout.pack(x, sliders);
         let mut modes = sliders.sliding;
         let mut t = 0.0;
         // The midpoint rule's parasitic solution grows where a substep of the finest row
@@ -295,7 +374,7 @@ impl<'a> SlidingStep<'a> {
                 }
                 continue;
             };
-            let start_events = self.events(t, &z, &modes);
+            let (start_rates, start_events) = self.rates(t, &z, &modes);
             let mut end_events = self.events(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
@@ -316,29 +395,14 @@ impl<'a> SlidingStep<'a> {
                 z_end = z_at;
                 end_events = self.events(t + at, &z_at, &modes);
             }
-            // The earliest crossing among the groups whose event value rose past zero.
-            let mut first: Option<(f64, usize, usize)> = None;
-            for g in 0..Group::COUNT {
-                for i in 0..self.friction.branches.len() {
-                    if end_events[g][i] > EVENT_TOLERANCE && changes[g][i] < MAX_CHANGES_AT_AN_INSTANT {
-                        let at = if start_events[g][i] > EVENT_TOLERANCE {
-                            0.0
-                        } else {
-                            self.crossing(
-                                t,
-                                &z,
-                                length,
-                                &modes,
-                                (g, i),
-                                (start_events[g][i], end_events[g][i]),
-                            )
-                        };
-                        if first.is_none_or(|(best, _, _)| at < best) {
-                            first = Some((at, g, i));
-                        }
-                    }
-                }
-            }
+            let candidate = |g: usize, i: usize| {
+                end_events[g][i] > EVENT_TOLERANCE && changes[g][i] < MAX_CHANGES_AT_AN_INSTANT
+            };
+            let first = self.earliest_crossing(
+                (t, &z, length, &modes),
+                (&start_rates, &start_events, &end_events),
+                candidate,
+            );
             match first {
                 None => {
                     z = z_end;
@@ -347,9 +411,9 @@ impl<'a> SlidingStep<'a> {
                     self.hold_on_limits(&mut z, &modes);
                     length *= growth;
                 }
-                Some((at, g, i)) => {
+                Some((at, g, i, z_at)) => {
                     if at > 0.0 {
-                        let Some(z_at) = self.substep_plain(t, &z, at, &modes) else {
+                        let Some(z_at) = z_at.or_else(|| self.substep_plain(t, &z, at, &modes)) else {
                             return Err(NotConverged);
                         };
                         z = z_at;
@@ -368,7 +432,7 @@ impl<'a> SlidingStep<'a> {
         if t < h {
             return Err(NotConverged);
         }
-        *x = self.unpack(&z, sliders);
+        *x = self.layout.unpack(&z, sliders);
         sliders.sliding = modes;
         Ok(())
     }
@@ -407,43 +471,41 @@ impl<'a> SlidingStep<'a> {
     /// outside its limit is put on it (the load fell), and each group's mode is decided
     /// from its state. Returns true if every group sticks strictly inside its limit.
     pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
-        let mut z = self.pack(x, sliders);
+        let layout = &self.layout;
+        let mut z = layout.pack(x, sliders);
         let mut inside = true;
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            if element.is_some() && self.limits.0[d] <= 0.0 {
-                for i in 0..self.friction.branches.len() {
-                    z[branch_index(d, i)] = 0.0;
-                }
+        for &(d, _, first) in layout.elements() {
+            if self.limits.0[d] <= 0.0 {
+                z[first..first + layout.branches].fill(0.0);
                 inside = false;
             }
         }
-        let states = self.model_states(&z);
-        let rates = self.system.state_rates(&states, &self.inputs);
         for group in self.friction.groups() {
-            for i in 0..self.friction.branches.len() {
-                let input = self.group_input(group, i, &states, &rates, &z);
-                let sliding = if input.damped() {
-                    let utilisation = input.utilisation(&input.sticking_force());
-                    inside &= utilisation < 1.0;
-                    utilisation > 1.0
-                } else {
-                    let force = input.spring_force();
-                    let utilisation = input.utilisation(&force);
-                    inside &= utilisation < 1.0;
-                    if utilisation > 1.0 {
-                        let shrink = utilisation.sqrt().recip();
-                        for &direction in group.directions() {
-                            if input.present[direction as usize] {
-                                z[branch_index(direction as usize, i)] *= shrink;
-                            }
-                        }
-                    }
-                    utilisation >= 1.0 - EVENT_TOLERANCE && input.outward_cosine(&force) > 0.0
-                };
-                sliders.sliding[group as usize][i] = sliding;
-            }
+            sliders.sliding[group as usize] = [false; MAX_BRANCHES];
         }
-        *x = self.unpack(&z, sliders);
+        let states = layout.model_states(&z);
+        let rates = self.system.state_rates(&states, &self.inputs);
+        for slot in self.slots() {
+            let input = self.slot_input(slot, &states, &rates, &z);
+            let sliding = if input.damped() {
+                let utilisation = input.utilisation(&input.sticking_force());
+                inside &= utilisation < 1.0;
+                utilisation > 1.0
+            } else {
+                let force = input.spring_force();
+                let utilisation = input.utilisation(&force);
+                inside &= utilisation < 1.0;
+                if utilisation > 1.0 {
+                    let shrink = utilisation.sqrt().recip();
+                    for m in 0..input.count.min(MAX_MEMBERS) {
+                        z[slot.entries[m]] *= shrink;
+                    }
+                }
+                utilisation >= 1.0 - EVENT_TOLERANCE && input.outward_cosine(&force) > 0.0
+            };
+            sliders.sliding[slot.group][slot.branch] = sliding;
+        }
+        *x = layout.unpack(&z, sliders);
         inside
     }
 
@@ -451,8 +513,8 @@ impl<'a> SlidingStep<'a> {
     /// make at these states and inputs: the sticking force where it is inside the limit,
     /// the closest point of the ellipse where it is not.
     pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
-        let z = self.pack(x, sliders);
-        let states = self.model_states(&z);
+        let z = self.layout.pack(x, sliders);
+        let states = self.layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut change = [0.0; Direction::COUNT];
         // A frictionless direction carries no force: its damper's share goes too.
@@ -464,19 +526,17 @@ impl<'a> SlidingStep<'a> {
                 change[d] -= element.stiffness * states[k] + element.damping * rates[k];
             }
         }
-        for group in self.friction.groups() {
-            for i in 0..self.friction.branches.len() {
-                let input = self.group_input(group, i, &states, &rates, &z);
-                if !input.damped() {
-                    continue;
-                }
-                let trial = input.sticking_force();
-                let utilisation = input.utilisation(&trial);
-                if utilisation > 1.0 {
-                    let force = input.closest_point(&trial, utilisation);
-                    for d in 0..Direction::COUNT {
-                        change[d] += force[d] - trial[d];
-                    }
+        for slot in self.slots() {
+            let input = self.slot_input(slot, &states, &rates, &z);
+            if !input.damped() {
+                continue;
+            }
+            let trial = input.sticking_force();
+            let utilisation = input.utilisation(&trial);
+            if utilisation > 1.0 {
+                let force = input.closest_point(&trial, utilisation);
+                for m in 0..input.count.min(MAX_MEMBERS) {
+                    change[input.direction[m]] += force[m] - trial[m];
                 }
             }
         }
@@ -486,10 +546,10 @@ impl<'a> SlidingStep<'a> {
     /// The rates of the model's states and of the branch offsets at these states (the
     /// state rates with the limits acting).
     pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
-        let z = self.pack(x, sliders);
+        let z = self.layout.pack(x, sliders);
         let (rates, _) = self.rates(0.0, &z, &sliders.sliding);
         let mut offset_rates = SliderState::AT_REST;
-        self.unpack(&rates, &mut offset_rates);
-        (StateVector::from_column_slice(&rates[..MAX_STATES]), offset_rates)
+        let x_rates = self.layout.unpack(&rates, &mut offset_rates);
+        (x_rates, offset_rates)
     }
 }

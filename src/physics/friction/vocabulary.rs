@@ -1,0 +1,162 @@
+//! The words of the friction limit: the law, the directions and groups of a model's
+//! contact elements, their limits at a load, and the state of their branches.
+
+use crate::physics::brush::{BRUSH_BRANCHES, Branch};
+use crate::physics::parameters::{Parameter, Parameters};
+use crate::physics::signals::Output;
+
+/// The friction law; the values are those of the FMI type `TireFriction`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FrictionLaw {
+    /// No limit: the linear model (with load dependence).
+    Unlimited = 1,
+    /// One slider per element: linear up to the limit, flat beyond.
+    Coulomb = 2,
+    /// Four parallel branches per element, fitted to the brush curve.
+    Brush = 3,
+}
+
+/// The single branch of the Coulomb law.
+const COULOMB_BRANCH: [Branch; 1] = [Branch {
+    stiffness_fraction: 1.0,
+    limit_fraction: 1.0,
+}];
+
+impl FrictionLaw {
+    pub const ALL: [FrictionLaw; 3] = [FrictionLaw::Unlimited, FrictionLaw::Coulomb, FrictionLaw::Brush];
+
+    pub fn from_value(value: i64) -> Option<Self> {
+        Self::ALL.into_iter().find(|law| *law as i64 == value)
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            FrictionLaw::Unlimited => "Unlimited",
+            FrictionLaw::Coulomb => "Coulomb",
+            FrictionLaw::Brush => "Brush",
+        }
+    }
+
+    /// The branches each element is split into (none without a limit).
+    pub fn branches(self) -> &'static [Branch] {
+        match self {
+            FrictionLaw::Unlimited => &[],
+            FrictionLaw::Coulomb => &COULOMB_BRANCH,
+            FrictionLaw::Brush => &BRUSH_BRANCHES,
+        }
+    }
+}
+
+/// The most branches an element has.
+pub const MAX_BRANCHES: usize = 4;
+
+/// The direction an element's force acts in. The longitudinal and lateral elements share
+/// the friction ellipse; the yaw element (DDT) has a limit of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Direction {
+    Longitudinal = 0,
+    Lateral = 1,
+    Yaw = 2,
+}
+
+impl Direction {
+    pub const COUNT: usize = 3;
+    pub const ALL: [Direction; Direction::COUNT] =
+        [Direction::Longitudinal, Direction::Lateral, Direction::Yaw];
+}
+
+/// The groups of directions that share a limit: the ellipse, and the yaw moment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Group {
+    Planar = 0,
+    Yaw = 1,
+}
+
+impl Group {
+    pub const COUNT: usize = 2;
+    pub const ALL: [Group; Group::COUNT] = [Group::Planar, Group::Yaw];
+
+    pub const fn directions(self) -> &'static [Direction] {
+        match self {
+            Group::Planar => &[Direction::Longitudinal, Direction::Lateral],
+            Group::Yaw => &[Direction::Yaw],
+        }
+    }
+}
+
+/// A spring (or spring-damper) through which a model touches the road. Its force is
+/// `stiffness U + damping dU/dt`, with `U` the state `state`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactElement {
+    pub state: usize,
+    pub stiffness: f64,
+    pub damping: f64,
+    /// How the outputs change per unit change of the element force at fixed states: the
+    /// outputs that show the force directly (with the trail and rolling radius terms).
+    pub force_outputs: [(Output, f64); 2],
+}
+
+impl ContactElement {
+    /// An element whose force is not an output by itself (a tread spring that acts on a
+    /// contact mass).
+    pub const NO_OUTPUTS: [(Output, f64); 2] = [(Output::Fx, 0.0), (Output::Fx, 0.0)];
+}
+
+/// A model's contact elements, by [`Direction`].
+pub type ContactElements = [Option<ContactElement>; Direction::COUNT];
+
+/// The friction limits at a normal load: `Fmax_x`, `Fmax_y` (N) and the yaw moment's
+/// (N.m), by [`Direction`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Limits(pub [f64; Direction::COUNT]);
+
+impl Limits {
+    /// `mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1))`, never below 0;
+    /// `Fmax = mu(Fz) Fz`; the yaw moment's limit is `boreRadius muY(Fz) Fz`. A zero limit
+    /// makes its direction frictionless: the branch force is zero.
+    pub fn at(p: &Parameters, load: f64) -> Self {
+        let nominal = p.get(Parameter::NominalLoad);
+        let load = load.max(0.0);
+        let factor = (1.0 + p.get(Parameter::FrictionLoadSensitivity) * (load / nominal - 1.0)).max(0.0);
+        let limit = |mu: f64, lever: f64| mu * factor * load * lever;
+        let (mu_x, mu_y) = (
+            p.get(Parameter::LongitudinalFriction),
+            p.get(Parameter::LateralFriction),
+        );
+        let bore = p.get(Parameter::BoreRadius);
+        Limits([limit(mu_x, 1.0), limit(mu_y, 1.0), limit(mu_y, bore)])
+    }
+}
+
+/// Each branch's deflection and whether its groups slide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SliderState {
+    /// `b_i - U` by [`Direction`] and branch, in the unit of the element's state `U`: zero
+    /// until a branch slides (always, for one branch), and relaxing while all stick.
+    pub offsets: [[f64; MAX_BRANCHES]; Direction::COUNT],
+    /// By [`Group`] and branch.
+    pub sliding: [[bool; MAX_BRANCHES]; Group::COUNT],
+}
+
+impl SliderState {
+    pub const AT_REST: SliderState = SliderState {
+        offsets: [[0.0; MAX_BRANCHES]; Direction::COUNT],
+        sliding: [[false; MAX_BRANCHES]; Group::COUNT],
+    };
+
+    /// Whether every branch sticks at its element's state (no offsets, nothing sliding).
+    pub fn together(&self) -> bool {
+        // Branch-free folds: every offset +-0 and no flag set.
+        let offsets = self
+            .offsets
+            .iter()
+            .flatten()
+            .fold(0, |any, o| any | (o.to_bits() << 1));
+        let sliding = self.sliding.iter().flatten().fold(false, |any, &s| any | s);
+        offsets == 0 && !sliding
+    }
+
+    pub fn any_sliding(&self) -> bool {
+        self.sliding.iter().flatten().any(|&s| s)
+    }
+}
