@@ -40,6 +40,10 @@ type Vector = [f64; SIZE];
 /// At most this many substeps and events per step (a safeguard: a step takes a handful).
 const MAX_SUBSTEPS: usize = 50_000;
 
+/// The substeps and events the explicit method may take beyond two per longest substep
+/// before a step goes to the stiff method.
+const EXPLICIT_MARGIN: usize = 64;
+
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
 
@@ -358,7 +362,17 @@ impl<'a> SlidingStep<'a> {
         let mut length = h.min(0.5 * longest);
         // Mode changes per group and branch at the current instant.
         let mut changes = [[0_u32; MAX_BRANCHES]; Group::COUNT];
-        for _ in 0..MAX_SUBSTEPS {
+        // The explicit method crawls where a group sliding on its ellipse turns its force
+        // far faster than anything it knows of (a stiff tire at a light load): past the
+        // substeps the step's length needs, and a margin for events, or as soon as the
+        // substeps the error control allows could not finish within that, the step is
+        // handed to the stiff method.
+        let budget = if self.stiff.get() {
+            MAX_SUBSTEPS
+        } else {
+            EXPLICIT_MARGIN + (2.0 * (h / longest).ceil()).min(MAX_SUBSTEPS as f64) as usize
+        };
+        for substep in 0..budget.min(MAX_SUBSTEPS) {
             if t >= h {
                 break;
             }
@@ -410,6 +424,12 @@ impl<'a> SlidingStep<'a> {
                     changes = [[0; MAX_BRANCHES]; Group::COUNT];
                     self.hold_on_limits(&mut z, &modes);
                     length *= growth;
+                    // Substeps that cannot finish the step within the budget at the
+                    // length the error control allows: crawling, known early.
+                    let left = budget.saturating_sub(substep + 1);
+                    if !self.stiff.get() && substep >= 8 && h - t > length * left as f64 {
+                        return Err(NotConverged);
+                    }
                 }
                 Some((at, g, i, z_at)) => {
                     if at > 0.0 {
