@@ -47,6 +47,15 @@ pub struct GroupOutput {
 /// Forces (or rates) by member.
 pub type Members = [f64; MAX_MEMBERS];
 
+/// The sliding spring law at one state ([`GroupInput::flow`]).
+#[derive(Default)]
+struct Flow {
+    normal: Members,
+    along: f64,
+    stiffness_along: f64,
+    cosine: f64,
+}
+
 impl GroupInput {
     /// Adds direction `direction` with its constants (deflection and rate zero).
     pub fn with_member(mut self, direction: Direction, stiffness: f64, damping: f64, limit: f64) -> Self {
@@ -59,7 +68,8 @@ impl GroupInput {
         self
     }
 
-    fn members(&self) -> std::ops::Range<usize> {
+    /// The indices of its members.
+    pub fn members(&self) -> std::ops::Range<usize> {
         0..self.count.min(MAX_MEMBERS)
     }
 
@@ -116,32 +126,20 @@ impl GroupInput {
                 event: self.utilisation(&force) - 1.0,
             };
         }
-        // n = F / L^2; lambda = n.K g / n.K n, and the cosine of n and K g.
-        let (mut numerator, mut denominator, mut normal_norm, mut rate_norm) = (0.0, 0.0, 0.0, 0.0);
-        let mut normal = [0.0; MAX_MEMBERS];
-        for k in self.members() {
-            normal[k] = force[k] / (self.limit[k] * self.limit[k]);
-            let force_rate = self.stiffness[k] * self.sticking_rate[k];
-            numerator += normal[k] * force_rate;
-            denominator += normal[k] * self.stiffness[k] * normal[k];
-            normal_norm += normal[k] * normal[k];
-            rate_norm += force_rate * force_rate;
-        }
-        let lambda = if denominator > 0.0 {
-            numerator / denominator
+        let flow = self.flow(&force);
+        let lambda = if flow.stiffness_along > 0.0 {
+            flow.along / flow.stiffness_along
         } else {
             0.0
         };
         let mut rate = [0.0; MAX_MEMBERS];
         for k in self.members() {
-            rate[k] = self.sticking_rate[k] - lambda * normal[k];
+            rate[k] = self.sticking_rate[k] - lambda * flow.normal[k];
         }
-        let norm = (normal_norm * rate_norm).sqrt();
-        let cosine = if norm > 0.0 { numerator / norm } else { 0.0 };
         GroupOutput {
             rate,
             force,
-            event: -cosine,
+            event: -flow.cosine,
         }
     }
 
@@ -149,16 +147,27 @@ impl GroupInput {
     /// positive while sticking would push the force out of the ellipse. Zero without
     /// motion.
     pub fn outward_cosine(&self, force: &Members) -> f64 {
-        let (mut dot, mut normal_norm, mut rate_norm) = (0.0, 0.0, 0.0);
+        self.flow(force).cosine
+    }
+
+    /// What the sliding law needs at spring forces `force`: the normal `n = F / L^2`,
+    /// `n.K g`, `n.K n`, and the cosine of `n` and `K g`. Sliding, the slider moves along
+    /// `n` at `lambda = n.K g / n.K n`.
+    fn flow(&self, force: &Members) -> Flow {
+        let mut flow = Flow::default();
+        let (mut normal_norm, mut rate_norm) = (0.0, 0.0);
         for k in self.members() {
             let normal = force[k] / (self.limit[k] * self.limit[k]);
             let force_rate = self.stiffness[k] * self.sticking_rate[k];
-            dot += normal * force_rate;
+            flow.normal[k] = normal;
+            flow.along += normal * force_rate;
+            flow.stiffness_along += normal * self.stiffness[k] * normal;
             normal_norm += normal * normal;
             rate_norm += force_rate * force_rate;
         }
         let norm = (normal_norm * rate_norm).sqrt();
-        if norm > 0.0 { dot / norm } else { 0.0 }
+        flow.cosine = if norm > 0.0 { flow.along / norm } else { 0.0 };
+        flow
     }
 
     /// In each mode the formulas continue smoothly past the event (a sticking group
@@ -222,16 +231,7 @@ impl GroupInput {
     fn lambda_by_norm(&self, trial: &Members, weight: &Members, start: f64, largest: f64) -> Option<f64> {
         let mut lambda = start;
         for _ in 0..12 {
-            let (mut sum, mut slope) = (0.0, 0.0);
-            for k in self.members() {
-                let shrink = 1.0 / (1.0 + lambda * weight[k]);
-                if shrink.is_nan() || shrink <= 0.0 {
-                    return None;
-                }
-                let ratio = trial[k] / self.limit[k] * shrink;
-                sum += ratio * ratio;
-                slope -= 2.0 * ratio * ratio * weight[k] * shrink;
-            }
+            let (sum, slope) = self.squared_norm(trial, weight, lambda)?;
             // h = S^(-1/2) - 1, h' = -S' / (2 S^(3/2)): the step -h / h'.
             let step = 2.0 * sum * (1.0 - sum.sqrt()) / slope;
             if !step.is_finite() {
@@ -252,14 +252,10 @@ impl GroupInput {
     fn lambda_monotone(&self, trial: &Members, weight: &Members, start: f64) -> f64 {
         let mut lambda = start;
         for _ in 0..100 {
-            let (mut phi, mut slope) = (-1.0, 0.0);
-            for k in self.members() {
-                let shrink = 1.0 / (1.0 + lambda * weight[k]);
-                let ratio = trial[k] / self.limit[k] * shrink;
-                phi += ratio * ratio;
-                slope -= 2.0 * ratio * ratio * weight[k] * shrink;
-            }
-            let next = lambda - phi / slope;
+            let Some((sum, slope)) = self.squared_norm(trial, weight, lambda) else {
+                return lambda;
+            };
+            let next = lambda - (sum - 1.0) / slope;
             if next.partial_cmp(&lambda) != Some(std::cmp::Ordering::Greater)
                 || next - lambda <= 1e-16 * next.abs()
             {
@@ -268,6 +264,22 @@ impl GroupInput {
             lambda = next;
         }
         lambda
+    }
+
+    /// `S(lambda) = sum (T_k / (L_k (1 + lambda a_k)))^2` and its slope in `lambda`;
+    /// `None` where some `1 + lambda a_k` is not positive.
+    fn squared_norm(&self, trial: &Members, weight: &Members, lambda: f64) -> Option<(f64, f64)> {
+        let (mut sum, mut slope) = (0.0, 0.0);
+        for k in self.members() {
+            let shrink = 1.0 / (1.0 + lambda * weight[k]);
+            if shrink.is_nan() || shrink <= 0.0 {
+                return None;
+            }
+            let ratio = trial[k] / self.limit[k] * shrink;
+            sum += ratio * ratio;
+            slope -= 2.0 * ratio * ratio * weight[k] * shrink;
+        }
+        Some((sum, slope))
     }
 }
 

@@ -202,11 +202,10 @@ impl SlidingStep<'_> {
         let (mut hi, mut end) = (length, end_events[g][i]);
         for _ in 0..Group::COUNT * MAX_BRANCHES {
             let guess = estimate(g, i, end, hi);
-            let (at, z_at) = self.crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), guess);
-            let Some(z_at) = z_at else {
+            let (at, reached) = self.crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), guess);
+            let Some((z_at, events_at)) = reached else {
                 return Some((at, g, i, None));
             };
-            let events_at = self.events(t + at, &z_at, modes);
             let earlier = candidates()
                 .find(|&(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
             match earlier {
@@ -249,7 +248,7 @@ impl SlidingStep<'_> {
     }
 
     /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
-    /// event tolerance, and the state there if it was computed: Newton's method on the
+    /// event tolerance, and the state and event values there if they were computed: Newton's method on the
     /// accurate solution (from `guess`, the event's rate along the motion by a difference),
     /// kept inside a shrinking bracket (regula falsi, Illinois, where a Newton step would
     /// leave it).
@@ -263,11 +262,11 @@ impl SlidingStep<'_> {
         (g, i): (usize, usize),
         (start, end): (f64, f64),
         guess: f64,
-    ) -> (f64, Option<Vector>) {
+    ) -> (f64, Option<(Vector, Events)>) {
         let level = 0.5 * EVENT_TOLERANCE;
         // Accepted: an event value in (level, 2 level]; Newton aims at its middle.
         let aim = 1.5 * level;
-        let (mut lo, mut hi, mut z_hi) = (0.0, length, None);
+        let (mut lo, mut hi, mut reached) = (0.0, length, None);
         let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
         let mut guess = Some(guess);
         let mut side = 0;
@@ -291,10 +290,12 @@ impl SlidingStep<'_> {
             // Past the crossing by less than the event tolerance itself: as close as
             // the event is defined.
             if e > 0.0 && e <= level {
-                return (tau, Some(z_tau));
+                return (tau, Some((z_tau, events)));
             }
+            let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length)[g][i];
+            guess = (slope > 0.0).then(|| tau + (aim - value) / slope);
             if e > 0.0 {
-                (hi, z_hi) = (tau, Some(z_tau));
+                (hi, reached) = (tau, Some((z_tau, events)));
                 e_hi = e;
                 if side == 1 {
                     e_lo *= 0.5;
@@ -308,9 +309,7 @@ impl SlidingStep<'_> {
                 }
                 side = -1;
             }
-            let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length)[g][i];
-            guess = (slope > 0.0).then(|| tau + (aim - value) / slope);
         }
-        (hi, z_hi)
+        (hi, reached)
     }
 }

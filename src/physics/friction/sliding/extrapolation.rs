@@ -64,19 +64,23 @@ impl SlidingStep<'_> {
 
     /// The end of an extrapolated substep, without looking inside it for events.
     pub(super) fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes) -> Option<Vector> {
-        self.substep_by(t, z, length, modes, false).map(|(z, _, _, _)| z)
+        let (rates, events) = self.rates(t, z, modes);
+        self.substep_by(t, z, (&rates, &events), length, modes, false)
+            .map(|(z, _, _, _)| z)
     }
 
-    /// An extrapolated substep, with where a limit may have been touched inside it and
-    /// the spacing of the samples that found it.
+    /// An extrapolated substep from `z` with its `start` rates and event values, with
+    /// where a limit may have been touched inside it and the spacing of the samples that
+    /// found it.
     pub(super) fn substep(
         &self,
         t: f64,
         z: &Vector,
+        start: (&Vector, &Events),
         length: f64,
         modes: &Modes,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        self.substep_by(t, z, length, modes, true)
+        self.substep_by(t, z, start, length, modes, true)
     }
 
     /// The largest difference between two rows' extrapolated values, relative to the
@@ -102,12 +106,11 @@ impl SlidingStep<'_> {
         &self,
         t: f64,
         z: &Vector,
+        start: (&Vector, &Events),
         length: f64,
         modes: &Modes,
         look_inside: bool,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        let start = self.rates(t, z, modes);
-        let start = (&start.0, &start.1);
         if self.stiff.get() {
             let jacobian = self.jacobian(t, z, start.0, modes);
             self.extrapolate(z, &IMPLICIT_SEQUENCE, 1, look_inside, |n| {

@@ -18,8 +18,12 @@ use super::{Events, Modes, SIZE, SlidingStep, Vector};
 /// Step counts of the rows (the harmonic sequence).
 pub(super) const IMPLICIT_SEQUENCE: [usize; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10];
 
-/// A square matrix over the entries in use of the coupled vector, by row.
-pub(super) type Jacobian = [[f64; SIZE]; SIZE];
+/// A square matrix over the entries of the coupled vector, by row (only the entries in
+/// use are read).
+type Matrix = [[f64; SIZE]; SIZE];
+
+/// The Jacobian of a piece's right-hand side.
+pub(super) type Jacobian = Matrix;
 
 impl SlidingStep<'_> {
     /// The Jacobian of the piece's right-hand side at `z` by forward differences, the
@@ -57,7 +61,7 @@ impl SlidingStep<'_> {
     ) -> Option<Row> {
         let size = self.size();
         let s = length / n as f64;
-        let mut matrix = [[0.0; SIZE]; SIZE];
+        let mut matrix: Matrix = [[0.0; SIZE]; SIZE];
         for r in 0..size {
             for c in 0..size {
                 matrix[r][c] = -s * jacobian[r][c];
@@ -92,14 +96,14 @@ impl SlidingStep<'_> {
 
 /// The LU factors of a matrix over the first `size` entries, with partial pivoting.
 struct Factors {
-    lu: [[f64; SIZE]; SIZE],
+    lu: Matrix,
     pivots: [usize; SIZE],
     size: usize,
 }
 
 impl Factors {
     /// `None` if the matrix is singular (or not finite).
-    fn new(mut lu: [[f64; SIZE]; SIZE], size: usize) -> Option<Self> {
+    fn new(mut lu: Matrix, size: usize) -> Option<Self> {
         let mut pivots = [0; SIZE];
         for k in 0..size {
             let p = (k..size).fold(k, |best, r| {

@@ -58,14 +58,23 @@ struct Layout {
     /// The model state of each of the first `free_count` entries.
     free: [usize; MAX_STATES],
     free_count: usize,
-    /// By present element: its direction, model state and first branch entry.
-    elements: [(usize, usize, usize); Direction::COUNT],
+    /// By present element.
+    elements: [ElementEntries; Direction::COUNT],
     element_count: usize,
     /// Branches per element, and every branch's `w_i`.
     branches: usize,
     weights: [f64; MAX_BRANCHES],
     /// Entries in use.
     size: usize,
+}
+
+/// Where a present element's branches are: its direction, its model state and its first
+/// branch's entry (the others follow).
+#[derive(Clone, Copy, Debug, Default)]
+struct ElementEntries {
+    direction: usize,
+    state: usize,
+    first: usize,
 }
 
 impl Layout {
@@ -85,7 +94,11 @@ impl Layout {
         let mut next = layout.free_count;
         for (d, element) in friction.elements.iter().enumerate() {
             if let Some(element) = element {
-                layout.elements[layout.element_count] = (d, element.state, next);
+                layout.elements[layout.element_count] = ElementEntries {
+                    direction: d,
+                    state: element.state,
+                    first: next,
+                };
                 layout.element_count += 1;
                 next += layout.branches;
             }
@@ -94,13 +107,16 @@ impl Layout {
         layout
     }
 
-    fn elements(&self) -> &[(usize, usize, usize)] {
+    fn elements(&self) -> &[ElementEntries] {
         &self.elements[..self.element_count]
     }
 
     /// The entry of branch `i` of direction `d`'s element, if the model has one.
     fn branch_entry(&self, d: usize, i: usize) -> Option<usize> {
-        self.elements().iter().find(|e| e.0 == d).map(|e| e.2 + i)
+        self.elements()
+            .iter()
+            .find(|e| e.direction == d)
+            .map(|e| e.first + i)
     }
 
     /// The model's states (or rates) of a coupled vector (or its rates): the free entries,
@@ -110,12 +126,12 @@ impl Layout {
         for j in 0..self.free_count {
             x[self.free[j]] = z[j];
         }
-        for &(_, k, first) in self.elements() {
+        for e in self.elements() {
             let mut sum = 0.0;
             for i in 0..self.branches {
-                sum += self.weights[i] * z[first + i];
+                sum += self.weights[i] * z[e.first + i];
             }
-            x[k] = sum;
+            x[e.state] = sum;
         }
         x
     }
@@ -125,9 +141,9 @@ impl Layout {
         for j in 0..self.free_count {
             z[j] = x[self.free[j]];
         }
-        for &(d, k, first) in self.elements() {
+        for e in self.elements() {
             for i in 0..self.branches {
-                z[first + i] = x[k] + sliders.offsets[d][i];
+                z[e.first + i] = x[e.state] + sliders.offsets[e.direction][i];
             }
         }
         z
@@ -136,9 +152,9 @@ impl Layout {
     /// The model's states and the branch offsets of `z` (linear: also rates from rates).
     fn unpack(&self, z: &Vector, sliders: &mut SliderState) -> StateVector {
         let x = self.model_states(z);
-        for &(d, k, first) in self.elements() {
+        for e in self.elements() {
             for i in 0..self.branches {
-                sliders.offsets[d][i] = z[first + i] - x[k];
+                sliders.offsets[e.direction][i] = z[e.first + i] - x[e.state];
             }
         }
         x
@@ -154,6 +170,17 @@ struct Slot {
     input: GroupInput,
     entries: [usize; MAX_MEMBERS],
     states: [usize; MAX_MEMBERS],
+}
+
+impl Slot {
+    /// Scales a spring group's deflections in `z`, whose forces have `utilisation`, so
+    /// that its force is on the ellipse (along its own direction).
+    fn put_on_ellipse(&self, z: &mut Vector, utilisation: f64) {
+        let shrink = utilisation.sqrt().recip();
+        for m in self.input.members() {
+            z[self.entries[m]] *= shrink;
+        }
+    }
 }
 
 /// The coupled system of one step: the model at its operating point with held or ramped
@@ -251,7 +278,7 @@ impl<'a> SlidingStep<'a> {
     #[inline]
     fn slot_input(&self, slot: &Slot, x: &StateVector, x_rates: &StateVector, z: &Vector) -> GroupInput {
         let mut input = slot.input;
-        for m in 0..input.count.min(MAX_MEMBERS) {
+        for m in input.members() {
             let (b, k) = (z[slot.entries[m]], slot.states[m]);
             input.deflection[m] = b;
             input.sticking_rate[m] = x_rates[k] + self.system.a[(k, k)] * (b - x[k]);
@@ -296,7 +323,7 @@ impl<'a> SlidingStep<'a> {
         for slot in self.slots() {
             let input = self.slot_input(slot, &x, &x_rates, z);
             let out: GroupOutput = input.evaluate(modes[slot.group][slot.branch]);
-            for m in 0..input.count.min(MAX_MEMBERS) {
+            for m in input.members() {
                 rates[slot.entries[m]] = out.rate[m];
             }
             events[slot.group][slot.branch] = out.event;
@@ -315,15 +342,12 @@ impl<'a> SlidingStep<'a> {
                 continue;
             }
             let mut input = slot.input;
-            for m in 0..input.count.min(MAX_MEMBERS) {
+            for m in input.members() {
                 input.deflection[m] = z[slot.entries[m]];
             }
             let utilisation = input.utilisation(&input.spring_force());
             if utilisation > 0.0 {
-                let shrink = utilisation.sqrt().recip();
-                for m in 0..input.count.min(MAX_MEMBERS) {
-                    z[slot.entries[m]] *= shrink;
-                }
+                slot.put_on_ellipse(z, utilisation);
             }
         }
     }
@@ -370,9 +394,9 @@ impl<'a> SlidingStep<'a> {
         let budget = if self.stiff.get() {
             MAX_SUBSTEPS
         } else {
-            EXPLICIT_MARGIN + (2.0 * (h / longest).ceil()).min(MAX_SUBSTEPS as f64) as usize
+            (EXPLICIT_MARGIN as f64 + 2.0 * (h / longest).ceil()).min(MAX_SUBSTEPS as f64) as usize
         };
-        for substep in 0..budget.min(MAX_SUBSTEPS) {
+        for substep in 0..budget {
             if t >= h {
                 break;
             }
@@ -381,14 +405,16 @@ impl<'a> SlidingStep<'a> {
             if !self.stiff.get() {
                 length = length.min(longest);
             }
-            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, length, &modes) else {
+            let (start_rates, start_events) = self.rates(t, &z, &modes);
+            let start = (&start_rates, &start_events);
+            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, start, length, &modes)
+            else {
                 length *= 0.25;
                 if length <= 1e-15 * h {
                     return Err(NotConverged);
                 }
                 continue;
             };
-            let (start_rates, start_events) = self.rates(t, &z, &modes);
             let mut end_events = self.events(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
@@ -494,9 +520,9 @@ impl<'a> SlidingStep<'a> {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
         let mut inside = true;
-        for &(d, _, first) in layout.elements() {
-            if self.limits.0[d] <= 0.0 {
-                z[first..first + layout.branches].fill(0.0);
+        for e in layout.elements() {
+            if self.limits.0[e.direction] <= 0.0 {
+                z[e.first..e.first + layout.branches].fill(0.0);
                 inside = false;
             }
         }
@@ -516,10 +542,7 @@ impl<'a> SlidingStep<'a> {
                 let utilisation = input.utilisation(&force);
                 inside &= utilisation < 1.0;
                 if utilisation > 1.0 {
-                    let shrink = utilisation.sqrt().recip();
-                    for m in 0..input.count.min(MAX_MEMBERS) {
-                        z[slot.entries[m]] *= shrink;
-                    }
+                    slot.put_on_ellipse(&mut z, utilisation);
                 }
                 utilisation >= 1.0 - EVENT_TOLERANCE && input.outward_cosine(&force) > 0.0
             };
@@ -555,7 +578,7 @@ impl<'a> SlidingStep<'a> {
             let utilisation = input.utilisation(&trial);
             if utilisation > 1.0 {
                 let force = input.closest_point(&trial, utilisation);
-                for m in 0..input.count.min(MAX_MEMBERS) {
+                for m in input.members() {
                     change[input.direction[m]] += force[m] - trial[m];
                 }
             }
