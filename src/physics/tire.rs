@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+use super::friction::separable::SeparableStep;
 use super::friction::sliding::SlidingStep;
 use super::friction::{Friction, Limits, LinearStep, SliderState};
 use super::load::LoadLaw;
@@ -587,19 +588,36 @@ impl Tire {
                         h,
                     };
                     if !friction.sticking_step(&linear) {
-                        let mut sliders = *friction.state();
-                        let mut start = self.states;
                         let limits = friction.limits();
-                        let sliding_step =
-                            SlidingStep::new(state_space, friction, limits, (*u0, *du), self.states.amax());
-                        sliding_step.prepare(&mut start, &mut sliders);
-                        sliding_step
-                            .integrate(&mut start, &mut sliders, h)
-                            .map_err(|_| StepError::NotConverged)?;
-                        if !finite(start.as_slice()) {
+                        // Each branch by itself where they move on their own (RLT under
+                        // held inputs); otherwise, or if that gives up, all together.
+                        let separable = driving_held
+                            .then(|| SeparableStep::new(state_space, friction, &limits, u0))
+                            .flatten()
+                            .and_then(|step| step.step(&self.states, friction.state(), h));
+                        let (end, sliders) = match separable {
+                            Some(end) => end,
+                            None => {
+                                let mut sliders = *friction.state();
+                                let mut end = self.states;
+                                let sliding_step = SlidingStep::new(
+                                    state_space,
+                                    friction,
+                                    limits,
+                                    (*u0, *du),
+                                    self.states.amax(),
+                                );
+                                sliding_step.prepare(&mut end, &mut sliders);
+                                sliding_step
+                                    .integrate(&mut end, &mut sliders, h)
+                                    .map_err(|_| StepError::NotConverged)?;
+                                (end, sliders)
+                            }
+                        };
+                        if !finite(end.as_slice()) {
                             return Err(StepError::NotFinite);
                         }
-                        next_states = start;
+                        next_states = end;
                         friction.set_state(sliders);
                         sliding = true;
                     }
@@ -607,9 +625,11 @@ impl Tire {
             }
         }
         // Held inputs end the step where they started: the outputs there come from the
-        // system already at hand, so compute them now rather than look it up again.
-        // (After a step with sliding the limits shape them: they are computed on demand.)
-        self.outputs = (!ramping && !sliding).then(|| state_space.outputs(&next_states, u0));
+        // system already at hand, so compute them now rather than look it up again. A
+        // step with sliding ends with every spring force within its limit at this load;
+        // damped forces are shaped by their limits, and are computed on demand.
+        let shaped_by_limits = sliding && self.friction.as_ref().is_some_and(Friction::damped);
+        self.outputs = (!ramping && !shaped_by_limits).then(|| state_space.outputs(&next_states, u0));
         self.step_made_for = made_for;
         self.states = next_states;
         if ramping {

@@ -36,6 +36,7 @@
 //! [`group`]: the law of one group; [`sliding`]: a step with sliding.
 
 pub mod group;
+pub mod separable;
 pub mod sliding;
 mod sticking;
 mod vocabulary;
@@ -214,6 +215,16 @@ impl Friction {
     /// outputs, not only of the state motion.
     pub fn damped(&self) -> bool {
         self.damped
+    }
+
+    /// Whether every branch moves on its own, so that a step with sliding can take each
+    /// branch by itself ([`separable`]): every state of the model (of `states`) is an
+    /// undriven, undamped element of the ellipse (RLT).
+    pub fn separable(&self, states: usize) -> bool {
+        self.all_undriven
+            && !self.damped
+            && !self.present_directions[Direction::Yaw as usize]
+            && self.present_count == states
     }
 
     /// An estimate of the fastest rate in the system with its sliders, 1/s: diagonal
