@@ -28,12 +28,16 @@
 //!    any step size. The others, and those when the second bound is too coarse, by
 //!    [`force_bound`], trusted only for steps short against the dynamics, so a longer
 //!    step is bounded part by part.
-//! 3. Otherwise [`sliding`] integrates the branches and the model together, piece by
-//!    piece between stick/slide events located in time, to 1e-12.
+//! 3. Otherwise, where every branch moves on its own (RLT) and the driving inputs are
+//!    held, [`separable`] steps each branch by itself as a hybrid system: exact while it
+//!    sticks, its ellipse angle integrated while it slides, its mode changes located.
+//! 4. Otherwise (or where that gives up) [`sliding`] integrates the branches and the
+//!    model together, piece by piece between stick/slide events located in time, to 1e-12.
 //!
 //! Here: the [`Friction`] type; [`vocabulary`]: the law, directions, groups, elements,
 //! limits and branch states; [`sticking`]: the check that a step sticks throughout;
-//! [`group`]: the law of one group; [`sliding`]: a step with sliding.
+//! [`group`]: the law of one group; [`separable`]: a step with sliding, branch by branch;
+//! [`sliding`]: a step with sliding, all together.
 
 pub mod group;
 pub mod separable;

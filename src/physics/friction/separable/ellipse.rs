@@ -35,16 +35,18 @@ pub struct EllipseBranch {
 impl EllipseBranch {
     /// A member with an infinite limit and no drive takes no part: no force, no motion.
     pub fn new(stiffness: [f64; 2], limit: [f64; 2], relaxation: [f64; 2], drive: [f64; 2]) -> Self {
-        let travel = [limit[0] / stiffness[0], limit[1] / stiffness[1]];
+        // Four divisions, not eight: a step makes these for every branch.
+        let (inverse_stiffness, inverse_limit) = (stiffness.map(|k| 1.0 / k), limit.map(|l| 1.0 / l));
+        let inverse_travel = [stiffness[0] * inverse_limit[0], stiffness[1] * inverse_limit[1]];
         EllipseBranch {
             stiffness,
             limit,
             relaxation,
             drive,
-            travel,
-            inverse_travel: travel.map(|p| 1.0 / p),
-            inverse_travel_squared: travel.map(|p| 1.0 / (p * p)),
-            normal_scale: [0, 1].map(|k| stiffness[k] / (limit[k] * limit[k])),
+            travel: [limit[0] * inverse_stiffness[0], limit[1] * inverse_stiffness[1]],
+            inverse_travel,
+            inverse_travel_squared: inverse_travel.map(|p| p * p),
+            normal_scale: [0, 1].map(|k| inverse_travel[k] * inverse_limit[k]),
         }
     }
 

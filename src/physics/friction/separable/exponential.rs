@@ -56,10 +56,19 @@ fn small_sin_cos(x: f64) -> (f64, f64) {
     // (-1)^j / (2j + 1)! and (-1)^j / (2j)!, by Horner in x^2 (multiplications only).
     const SIN: [f64; 7] = taylor(1);
     const COS: [f64; 8] = taylor(0);
+    // The terms that matter at this size: a quasi-steady step turns by a milliradian.
+    let (sin_terms, cos_terms) = match x.abs() {
+        a if a < 1e-3 => (3, 4),
+        a if a < 3e-2 => (5, 6),
+        _ => (SIN.len(), COS.len()),
+    };
     let x2 = x * x;
-    let sin = x * SIN.iter().rev().fold(0.0, |sum, c| sum * x2 + c);
-    let cos = COS.iter().rev().fold(0.0, |sum, c| sum * x2 + c);
-    (sin, cos)
+    (x * horner(&SIN[..sin_terms], x2), horner(&COS[..cos_terms], x2))
+}
+
+/// `sum c_j x^j`.
+fn horner(coefficients: &[f64], x: f64) -> f64 {
+    coefficients.iter().rev().fold(0.0, |sum, c| sum * x + c)
 }
 
 /// `(-1)^j / (2j + first)!` for j = 0..N.
@@ -109,16 +118,13 @@ pub fn phi_functions(z: f64) -> [f64; 4] {
             }
             c
         };
-        // Quasi-steady sliding has |z| below 0.1: eight terms do there.
-        let terms = if z.abs() < 0.1 {
-            9
-        } else {
-            INVERSE_FACTORIALS.len()
+        // Quasi-steady sliding has |z| below 0.1: fewer terms do there.
+        let terms = match z.abs() {
+            a if a < 1e-2 => 7,
+            a if a < 1e-1 => 9,
+            _ => INVERSE_FACTORIALS.len(),
         };
-        let mut phi4 = 0.0;
-        for c in INVERSE_FACTORIALS[..terms].iter().rev() {
-            phi4 = phi4 * z + c;
-        }
+        let phi4 = horner(&INVERSE_FACTORIALS[..terms], z);
         let phi3 = 1.0 / 6.0 + z * phi4;
         let phi2 = 0.5 + z * phi3;
         [1.0 + z * phi2, phi2, phi3, phi4]

@@ -6,7 +6,7 @@
 //! - **Stick**: each member follows the model, `db/dt = g - a b` (`g` from the held
 //!   inputs, `a` the relaxation rate): `b(t) = b0 + t phi1(-a t) (g - a b0)`, exact.
 //! - **Slide**: the force stays on the ellipse, `b = (P cos theta, Q sin theta)`; the angle
-//!   follows a scalar autonomous flow ([`ellipse`]), integrated by exponential Rosenbrock
+//!   follows a scalar autonomous flow (`ellipse.rs`), integrated by exponential Rosenbrock
 //!   steps ([`exponential`]), exact for its linearisation at any stiffness and accurate to
 //!   1e-12. With one member (the other direction frictionless) the force is held on its
 //!   limit.
@@ -32,8 +32,9 @@ use exponential::{Outcome, integrate};
 
 /// An event value above this has crossed (as on the general path).
 const EVENT_TOLERANCE: f64 = 1e-12;
-/// Absolute error of the angle per integration step, rad.
-const ANGLE_TOLERANCE: f64 = 1e-13;
+/// Absolute error of the angle per integration step, rad (the relative error of the
+/// force on the ellipse).
+const ANGLE_TOLERANCE: f64 = 1e-12;
 /// Mode changes of one branch within a step before it goes to the general path.
 const MAX_CHANGES: usize = 12;
 /// Integration steps of one sliding piece before it goes to the general path.
@@ -202,7 +203,7 @@ fn scaled(b: [f64; 2], utilisation: f64) -> [f64; 2] {
 /// microseconds (the terms left out are below 1e-19), by the library's function beyond.
 fn exp_m1_and_phi1(z: f64) -> (f64, f64) {
     if z.abs() < 0.01 {
-        // 1/(k + 1)! for k = 0..7.
+        // 1/(k + 1)! for k = 0..7; four terms below 1e-4.
         const C: [f64; 8] = [
             1.0,
             0.5,
@@ -213,7 +214,8 @@ fn exp_m1_and_phi1(z: f64) -> (f64, f64) {
             1.0 / 5040.0,
             1.0 / 40320.0,
         ];
-        let phi1 = C.iter().rev().fold(0.0, |sum, c| sum * z + c);
+        let terms = if z.abs() < 1e-4 { 4 } else { C.len() };
+        let phi1 = C[..terms].iter().rev().fold(0.0, |sum, c| sum * z + c);
         (z * phi1, phi1)
     } else {
         let change = z.exp_m1();
@@ -306,6 +308,11 @@ struct Sample {
     excess: f64,
 }
 
+/// The rate of a sticking branch's utilisation, `2 sum b b' / P^2`.
+fn utilisation_rate(at: &Sample, weight: &[f64; 2]) -> f64 {
+    2.0 * (weight[0] * at.deflection[0] * at.rate[0] + weight[1] * at.deflection[1] * at.rate[1])
+}
+
 /// The largest utilisation excess a sticking branch can reach between two samples, and a
 /// lower bound of its rate there (`weight`: `1 / P^2` by member).
 fn piece_bound(left: &Sample, right: &Sample, weight: &[f64; 2]) -> (f64, f64) {
@@ -342,14 +349,13 @@ fn root_of_excess(
     (mut low, mut high): (Sample, Sample),
 ) -> (f64, [f64; 2]) {
     let target = 0.5 * EVENT_TOLERANCE;
-    let slope = |s: &Sample| {
-        2.0 * (0..2)
-            .map(|k| weight[k] * s.deflection[k] * s.rate[k])
-            .sum::<f64>()
-    };
-    // A first guess by the secant of the ends.
+    // A first guess by Newton's method from the start of the piece, if inside it, else by
+    // the secant of its ends.
     let (low_value, high_value) = (low.excess - target, high.excess - target);
-    let mut t = if high_value > low_value {
+    let from_start = low.t - low_value / utilisation_rate(&low, weight);
+    let mut t = if from_start > low.t && from_start < high.t {
+        from_start
+    } else if high_value > low_value {
         low.t - low_value * (high.t - low.t) / (high_value - low_value)
     } else {
         high.t
@@ -369,7 +375,8 @@ fn root_of_excess(
         if high.t - low.t <= 1e-15 * high.t {
             break;
         }
-        let (next, rising) = (t - value / slope(&at), slope(&at) > 0.0);
+        let rate = utilisation_rate(&at, weight);
+        let (next, rising) = (t - value / rate, rate > 0.0);
         t = if rising && next > low.t && next < high.t {
             next
         } else {

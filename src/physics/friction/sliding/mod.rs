@@ -1,5 +1,6 @@
 //! A step in which a branch slides, or may start to: the model's states and every branch
-//! deflection integrated together, piece by piece between stick/slide events.
+//! deflection integrated together, piece by piece between stick/slide events. (Where
+//! every branch moves on its own, [`super::separable`] takes the step branch by branch.)
 //!
 //! Within a piece every group keeps its mode, so the right-hand side is smooth; it is
 //! integrated by Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial
