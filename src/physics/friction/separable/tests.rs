@@ -16,6 +16,8 @@ const PARTS: usize = 16;
 
 struct Case {
     stiff: bool,
+    /// muX = 0: the ellipse has one member.
+    frictionless_longitudinal: bool,
     law: FrictionLaw,
     vx: f64,
     load_ratio: f64,
@@ -30,6 +32,9 @@ fn compare(case: &Case) {
         .with_model(ModelKind::Rlt)
         .with_friction(case.law);
     p.set(Parameter::LateralFriction, 0.3).unwrap();
+    if case.frictionless_longitudinal {
+        p.set(Parameter::LongitudinalFriction, 0.0).unwrap();
+    }
     if case.stiff {
         for (parameter, value) in [
             (Parameter::CorneringStiffness, 1e7),
@@ -55,7 +60,9 @@ fn compare(case: &Case) {
         .enumerate()
     {
         let element = friction.elements[direction as usize].unwrap();
-        travel[m] = limits.0[direction as usize] / element.stiffness;
+        // A frictionless direction's branches stay at zero: a scale for the others'.
+        travel[m] =
+            limits.0[direction as usize].max(limits.0[Direction::Lateral as usize]) / element.stiffness;
         let d = direction as usize;
         let mut state = 0.0;
         for (i, branch) in friction.branches.iter().enumerate() {
@@ -123,6 +130,7 @@ proptest! {
     #[test]
     fn the_separable_step_ends_where_the_general_path_does(
         stiff in any::<bool>(),
+        frictionless_longitudinal in proptest::bool::weighted(0.2),
         brush in any::<bool>(),
         vx in prop_oneof![Just(0.0), -30.0..30.0_f64],
         load_ratio in 0.002..2.0_f64,
@@ -132,6 +140,6 @@ proptest! {
         h in prop_oneof![Just(1e-3), 1e-6..1e-3_f64, 1e-3..2.0_f64],
     ) {
         let law = if brush { FrictionLaw::Brush } else { FrictionLaw::Coulomb };
-        compare(&Case { stiff, law, vx, load_ratio, inputs: [vy, vsx], deflections, h });
+        compare(&Case { stiff, frictionless_longitudinal, law, vx, load_ratio, inputs: [vy, vsx], deflections, h });
     }
 }
