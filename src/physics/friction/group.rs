@@ -56,6 +56,15 @@ struct Flow {
     cosine: f64,
 }
 
+/// The cosine between a group's normal `n = F / L^2` and its sticking force rate `K g`,
+/// from `n.K g`, `|n|^2` and `|K g|^2`: positive while sticking would push the force out
+/// of the ellipse, zero without motion.
+#[inline]
+pub fn outward_cosine_from(along: f64, normal_norm: f64, rate_norm: f64) -> f64 {
+    let norm = (normal_norm * rate_norm).sqrt();
+    if norm > 0.0 { along / norm } else { 0.0 }
+}
+
 impl GroupInput {
     /// Adds direction `direction` with its constants (deflection and rate zero).
     pub fn with_member(mut self, direction: Direction, stiffness: f64, damping: f64, limit: f64) -> Self {
@@ -165,8 +174,7 @@ impl GroupInput {
             normal_norm += normal * normal;
             rate_norm += force_rate * force_rate;
         }
-        let norm = (normal_norm * rate_norm).sqrt();
-        flow.cosine = if norm > 0.0 { flow.along / norm } else { 0.0 };
+        flow.cosine = outward_cosine_from(flow.along, normal_norm, rate_norm);
         flow
     }
 

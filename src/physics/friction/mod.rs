@@ -47,7 +47,8 @@ mod vocabulary;
 
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
-    ContactElement, ContactElements, Direction, FrictionLaw, Group, Limits, MAX_BRANCHES, SliderState,
+    ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, Limits, MAX_BRANCHES,
+    SliderState,
 };
 
 use super::brush::Branch;

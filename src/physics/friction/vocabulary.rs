@@ -47,6 +47,12 @@ impl FrictionLaw {
     }
 }
 
+/// A stick/slide event value (a utilisation above 1, an outward cosine below 0) past
+/// this has crossed; below it, rounding. An event is located where its value crosses half
+/// of this, clear of the rounding noise around zero (a group that starts on its limit
+/// sits at zero).
+pub const EVENT_TOLERANCE: f64 = 1e-12;
+
 /// The most branches an element has.
 pub const MAX_BRANCHES: usize = 4;
 

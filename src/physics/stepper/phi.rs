@@ -198,6 +198,31 @@ pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
     }
 }
 
+/// `[phi1(z), phi2(z), phi3(z), phi4(z)]` of a scalar (`phi_k(z) = sum z^j/(j+k)!`), as an
+/// exponential integrator of order four needs them: where |z| is small, phi4's Taylor
+/// series (as in [`scalar_phi_functions`]) and the others from it by
+/// `phi_k = 1/k! + z phi_(k+1)` (stable in that direction); elsewhere from `expm1` by
+/// `phi_(k+1) = (phi_k - 1/k!)/z`.
+#[inline]
+pub fn scalar_phi_functions_to_fourth(z: f64) -> [f64; 4] {
+    let phi4_series = &INVERSE_FACTORIAL[4..];
+    let phi4 = if z.abs() <= DEGREE_THRESHOLDS[7] {
+        estrin8(phi4_series, z, z * z, z * z * (z * z))
+    } else if z.abs() <= SCALED_NORM {
+        let z2 = z * z;
+        let z4 = z2 * z2;
+        estrin16(phi4_series, z, z2, z4, z4 * z4)
+    } else {
+        let phi1 = z.exp_m1() / z;
+        let phi2 = (phi1 - 1.0) / z;
+        let phi3 = (phi2 - INVERSE_FACTORIAL[2]) / z;
+        return [phi1, phi2, phi3, (phi3 - INVERSE_FACTORIAL[3]) / z];
+    };
+    let phi3 = INVERSE_FACTORIAL[3] + z * phi4;
+    let phi2 = INVERSE_FACTORIAL[2] + z * phi3;
+    [1.0 + z * phi2, phi2, phi3, phi4]
+}
+
 /// The phi-functions of the lower-triangular `[[z1, 0], [c, z2]]` in closed form: the
 /// diagonal holds `f(z1)`, `f(z2)` and the corner `c f[z1, z2]`, the divided difference
 /// of f. `phi_k[z1, z2]` is the divided difference `exp[z1, z2, 0, ..., 0]` (k zeros),
@@ -323,6 +348,36 @@ mod tests {
             "{z}: {matrix:?} {closed:?}"
         );
         closed
+    }
+
+    #[test]
+    fn the_phi_functions_to_the_fourth_agree_with_their_series_and_closed_forms() {
+        for z in [
+            -1e4, -3.0, -0.5001, -0.4999, -0.2, -1e-3, 0.0, 1e-6, 0.3, 0.4999, 0.5001, 2.0,
+        ] {
+            let phi = scalar_phi_functions_to_fourth(z);
+            let (_, phi1, phi2) = scalar_phi_functions(z);
+            assert!(
+                (phi[0] - phi1).abs() <= 1e-14 * phi1.abs() && (phi[1] - phi2).abs() <= 1e-14 * phi2.abs()
+            );
+            // phi3 and phi4 by their series where it converges fast, else by the recurrence.
+            for k in [3, 4] {
+                let expected = if z.abs() < 1.0 {
+                    (0..40).map(|j| z.powi(j) * inverse_factorial(j + k)).sum::<f64>()
+                } else {
+                    let mut phi = z.exp_m1() / z;
+                    for m in 1..k {
+                        phi = (phi - inverse_factorial(m)) / z;
+                    }
+                    phi
+                };
+                let got = phi[k as usize - 1];
+                assert!(
+                    (got - expected).abs() <= 1e-12 * expected.abs(),
+                    "z {z} k {k}: {got} vs {expected}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! The branch slides while sticking would push the force outward, `n.K r > 0`.
 
 use super::exponential::{Angle, AngleFlow};
+use crate::physics::friction::group::outward_cosine_from;
 
 /// Per member (longitudinal, lateral): the constants of the branch, with what follows
 /// from them (computed once: a step uses them many times).
@@ -67,17 +68,14 @@ impl EllipseBranch {
     /// positive while sticking would push the force out of the ellipse, zero without motion.
     pub fn outward_cosine(&self, b: [f64; 2]) -> f64 {
         let r = self.sticking_rate(b);
-        let mut along = 0.0;
-        let (mut normal_norm, mut rate_norm) = (0.0, 0.0);
+        let (mut along, mut normal_norm, mut rate_norm) = (0.0, 0.0, 0.0);
         for k in 0..2 {
-            let normal = self.normal_scale[k] * b[k];
-            let force_rate = self.stiffness[k] * r[k];
+            let (normal, force_rate) = (self.normal_scale[k] * b[k], self.stiffness[k] * r[k]);
             along += normal * force_rate;
             normal_norm += normal * normal;
             rate_norm += force_rate * force_rate;
         }
-        let norm = (normal_norm * rate_norm).sqrt();
-        if norm > 0.0 { along / norm } else { 0.0 }
+        outward_cosine_from(along, normal_norm, rate_norm)
     }
 
     /// The deflections at an angle on the ellipse.

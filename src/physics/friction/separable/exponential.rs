@@ -13,6 +13,8 @@
 //! The angle is carried with its cosine and sine, and a stage's angle is its start rotated
 //! by a small increment, so that evaluations need no trigonometry in quasi-steady sliding.
 
+use crate::physics::stepper::phi::{scalar_phi_functions, scalar_phi_functions_to_fourth};
+
 /// An angle, as its cosine and sine.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Angle {
@@ -101,41 +103,6 @@ pub trait AngleFlow {
     fn rate_and_slope(&self, at: &Angle) -> (f64, f64);
 }
 
-/// `phi_k(z) = sum_j z^j / (j + k)!` for k = 1..4: the functions of exponential integrators
-/// (`phi_1(z) = (e^z - 1)/z`, `phi_{k+1}(z) = (phi_k(z) - 1/k!)/z`). Near zero `phi_4` by its
-/// series and the others from it (stable in that direction); farther out from `e^z`.
-pub fn phi_functions(z: f64) -> [f64; 4] {
-    if z.abs() < 0.5 {
-        // 1/(j + 4)! for j = 0..14: the first term left out is below 1e-22.
-        const INVERSE_FACTORIALS: [f64; 15] = {
-            let mut c = [0.0; 15];
-            let mut factorial = 24.0;
-            let mut j = 0;
-            while j < 15 {
-                c[j] = 1.0 / factorial;
-                factorial *= (j + 5) as f64;
-                j += 1;
-            }
-            c
-        };
-        // Quasi-steady sliding has |z| below 0.1: fewer terms do there.
-        let terms = match z.abs() {
-            a if a < 1e-2 => 7,
-            a if a < 1e-1 => 9,
-            _ => INVERSE_FACTORIALS.len(),
-        };
-        let phi4 = horner(&INVERSE_FACTORIALS[..terms], z);
-        let phi3 = 1.0 / 6.0 + z * phi4;
-        let phi2 = 0.5 + z * phi3;
-        [1.0 + z * phi2, phi2, phi3, phi4]
-    } else {
-        let phi1 = z.exp_m1() / z;
-        let phi2 = (phi1 - 1.0) / z;
-        let phi3 = (phi2 - 0.5) / z;
-        [phi1, phi2, phi3, (phi3 - 1.0 / 6.0) / z]
-    }
-}
-
 /// One step: the order-four end and the estimate of its error.
 #[derive(Clone, Copy, Debug)]
 pub struct Step {
@@ -150,8 +117,8 @@ pub struct Step {
 /// `z = h slope`, `Di = g(Ui) - g(theta)`; the embedded solution drops the `phi4` terms.
 pub fn step<F: AngleFlow>(flow: &F, start: &Angle, (rate, slope): (f64, f64), h: f64) -> Step {
     let z = h * slope;
-    let [phi1, _, phi3, phi4] = phi_functions(z);
-    let half_phi1 = phi_functions(0.5 * z)[0];
+    let [phi1, _, phi3, phi4] = scalar_phi_functions_to_fourth(z);
+    let half_phi1 = scalar_phi_functions(0.5 * z).1;
     let remainder = |delta: f64, at: &Angle| flow.rate(at) - rate - slope * delta;
     let delta2 = 0.5 * h * half_phi1 * rate;
     let d2 = remainder(delta2, &start.rotated(delta2));
@@ -308,26 +275,6 @@ mod tests {
                 -self.k * (at.cos * c + at.sin * s),
             )
         }
-    }
-
-    #[test]
-    fn the_phi_functions_agree_across_the_switch() {
-        for z in [-0.4999, 0.4999, -0.3, 0.2] {
-            let by_series = phi_functions(z);
-            let direct = {
-                let p1 = z.exp_m1() / z;
-                let p2 = (p1 - 1.0) / z;
-                let p3 = (p2 - 0.5) / z;
-                [p1, p2, p3, (p3 - 1.0 / 6.0) / z]
-            };
-            for k in 0..4 {
-                assert!(
-                    (by_series[k] - direct[k]).abs() < 1e-10 * direct[k].abs(),
-                    "z {z} k {k}"
-                );
-            }
-        }
-        assert_eq!(phi_functions(0.0), [1.0, 0.5, 1.0 / 6.0, 1.0 / 24.0]);
     }
 
     #[test]

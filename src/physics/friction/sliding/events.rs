@@ -3,12 +3,9 @@
 //! parabola through three samples, then a golden-section search on the accurate solution).
 
 use super::{Events, Modes, SlidingStep, Vector};
+use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::{Group, MAX_BRANCHES};
 
-/// An event value above this has crossed; below it, rounding. An event is located where
-/// its value crosses half of this, clear of the rounding noise around zero (a group that
-/// starts on its limit sits at zero).
-pub(super) const EVENT_TOLERANCE: f64 = 1e-12;
 /// A sampled event value above minus this is close enough to its limit that the limit
 /// may be touched between samples; the accurate solution is then maximised there.
 pub(super) const NEAR_EVENT: f64 = 1e-3;

@@ -30,9 +30,9 @@ mod implicit;
 use std::cell::Cell;
 
 use super::group::{GroupInput, GroupOutput, MAX_MEMBERS};
-use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
+use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
-use events::{EVENT_TOLERANCE, MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
+use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 
 /// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
