@@ -5,10 +5,11 @@
 //! Within a piece every group keeps its mode, so the right-hand side is smooth; it is
 //! integrated by Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial
 //! extrapolation in h^2) to a relative 1e-12. A step that explicit method cannot finish
-//! (a stiff tire at a light load sliding on its ellipse turns its force within
-//! microseconds, and a long step would take too many substeps) is taken again from its
-//! start by linearly implicit Euler extrapolation, which is stable at any stiffness.
-//! Every step the explicit method finishes is its result, unchanged. After each substep the groups' event values
+//! within a few hundred substeps (a stiff tire at a light load sliding on its ellipse
+//! turns its force within microseconds; a light load makes the tire's own relaxation
+//! that fast) is taken again from its start by linearly implicit Euler extrapolation,
+//! which is stable at any stiffness. Every step the explicit method finishes is its
+//! result, unchanged. After each substep the groups' event values
 //! are checked; where one crosses zero, the crossing time is found by regula falsi
 //! (Illinois) on the length of the substep, the state is taken there, the group changes
 //! mode, and integration goes on. A spring group that slides is kept on its ellipse to
@@ -38,12 +39,22 @@ use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
 type Vector = [f64; SIZE];
 
-/// At most this many substeps and events per step (a safeguard: a step takes a handful).
-const MAX_SUBSTEPS: usize = 50_000;
+/// At most this many substeps and events per step: a safeguard against a step that makes
+/// no progress, not a limit on valid tires. A step usually takes a handful; a long step of
+/// an extreme tire (a load of a few newtons on a tread of 1e8 N/m for seconds) takes up to
+/// about 1e5, a fraction of a second of CPU.
+const MAX_SUBSTEPS: usize = 1_000_000;
 
 /// The substeps and events the explicit method may take beyond two per longest substep
 /// before a step goes to the stiff method.
 const EXPLICIT_MARGIN: usize = 64;
+
+/// The most substeps the explicit method may take in one step. Where the tire's own
+/// dynamics are fast against the step (a light load shortens the relaxation lengths, so
+/// their rates reach 1e6/s), the explicit method would need two substeps per longest
+/// substep, up to millions; the stiff method is stable at any substep length and takes a
+/// few per time scale of the motion instead.
+const EXPLICIT_CAP: usize = 256;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
@@ -389,13 +400,13 @@ impl<'a> SlidingStep<'a> {
         let mut changes = [[0_u32; MAX_BRANCHES]; Group::COUNT];
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
-        // substeps the step's length needs, and a margin for events, or as soon as the
-        // substeps the error control allows could not finish within that, the step is
-        // handed to the stiff method.
+        // substeps the step's length needs, and a margin for events (never more than
+        // `EXPLICIT_CAP`), or as soon as the substeps the error control allows could not
+        // finish within that, the step is handed to the stiff method.
         let budget = if self.stiff.get() {
             MAX_SUBSTEPS
         } else {
-            (EXPLICIT_MARGIN as f64 + 2.0 * (h / longest).ceil()).min(MAX_SUBSTEPS as f64) as usize
+            (EXPLICIT_MARGIN as f64 + 2.0 * (h / longest).ceil()).min(EXPLICIT_CAP as f64) as usize
         };
         for substep in 0..budget {
             if t >= h {
