@@ -63,6 +63,38 @@ fn long_steps_of_a_stiff_light_tire_are_accepted_and_agree_with_short_ones() {
     }
 }
 
+/// The same tire far below its limit (slips of 2e-6 m/s, 1e-4 Fmax) sticks: every step,
+/// from 1 ms to 1 s, is the exact linear step of the model, to the bit, although a light
+/// load makes the relaxation of the contact-mass models fast (1e6/s) against the step.
+#[test]
+fn a_stiff_light_tire_far_from_its_limit_takes_the_linear_step() {
+    for model in ModelKind::ALL {
+        for law in [FrictionLaw::Coulomb, FrictionLaw::Brush] {
+            for h in [1e-3, 0.1, 1.0] {
+                let mut tires = [
+                    stiff_light_tire(model, law).0,
+                    stiff_light_tire(model, FrictionLaw::Unlimited).0,
+                ];
+                for tire in &mut tires {
+                    tire.set_input(Input::Vy, -2e-6);
+                    tire.set_input(Input::Vsx, -1e-6);
+                }
+                for k in 0..20 {
+                    for tire in &mut tires {
+                        tire.step(h).unwrap();
+                    }
+                    let [limited, linear] = &mut tires;
+                    assert_eq!(
+                        limited.outputs(),
+                        linear.outputs(),
+                        "{model:?} {law:?} h {h} step {k}"
+                    );
+                }
+            }
+        }
+    }
+}
+
 mod random_tires {
     use proptest::prelude::*;
     use tirelag::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters, Tire};

@@ -124,7 +124,8 @@ impl Tire {
             parameters.friction,
             model.contact_elements(&parameters),
             &affine.state_coupling(),
-        );
+        )
+        .map(|f| f.with_passive_energy(model.passive().then(|| model.energy_weights(&parameters))));
         let rest = (0.0, 0.0);
         Ok(Self {
             load_law,

@@ -52,7 +52,7 @@ pub use vocabulary::{
 };
 
 use super::brush::Branch;
-use super::state_space::{MAX_STATES, StateSpace};
+use super::state_space::{MAX_STATES, StateSpace, StateVector};
 use sticking::{PresentElement, StickingCheck};
 
 /// The friction part of a tire: the law, the model's elements and the branches' states.
@@ -95,6 +95,10 @@ pub struct Friction {
     damped: bool,
     /// The largest `C / D` of the damped elements (how fast a sliding damper relaxes), 1/s.
     fastest_slide_rate: f64,
+    /// For a passive model ([`crate::physics::models::TireLagModel::passive`]), the weights
+    /// of its stored energy `sum q_j x_j^2 / 2`: about the equilibrium of held inputs that
+    /// energy never grows, which bounds every force at any step size.
+    passive_energy: Option<StateVector>,
     pub elements: ContactElements,
     state: SliderState,
     /// Whether `state` has every branch at its element's state ([`SliderState::together`]),
@@ -187,10 +191,17 @@ impl Friction {
                 members
             }),
             elements,
+            passive_energy: None,
             state: SliderState::AT_REST,
             together: true,
             check: StickingCheck::default(),
         })
+    }
+
+    /// The weights of a passive model's stored energy (`None`: not passive).
+    pub fn with_passive_energy(mut self, weights: Option<StateVector>) -> Self {
+        self.passive_energy = weights;
+        self
     }
 
     /// The groups this model has, each with whether its elements are damped.

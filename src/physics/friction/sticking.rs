@@ -237,6 +237,17 @@ impl Friction {
         }
         let exact = self.together && self.all_undriven && held;
         if !exact && !self.short(step) {
+            // A passive model's forces are bounded by its energy at any step size: a
+            // light load makes its relaxation too fast to bound part by part.
+            if self.together
+                && held
+                && let Some(weights) = &self.passive_energy
+            {
+                let utilisation: GroupUtilisation = self.energy_bounds_any(step, weights);
+                if utilisation.within(&self.check.thresholds) {
+                    return true;
+                }
+            }
             return self.sticks_part_by_part(step, held);
         }
         if self.together {
@@ -326,9 +337,10 @@ impl Friction {
     ///
     /// - An undriven element's force moves monotonically: its values at the ends bound it.
     /// - A lag-bounded element's state `U` has `dU/dt = a U + g(t)` with `a <= 0` and
-    ///   `|g| <= G`, G from the ends of its monotone drivers. So `|U| <= |U(0)| + G h` and
-    ///   `|dU/dt| <= |a| |U| + G`, and its force `C U + D dU/dt = (C + D a) U + D g` is at
-    ///   most `|C + D a| (|U(0)| + G h) + D G`. (Infinite where `a > 0`.)
+    ///   `|g| <= G`, G from the ends of its monotone drivers. So `|U|` stays within
+    ///   `|U(0)| + G h` and within `max(|U(0)|, G / |a|)`, and its force
+    ///   `C U + D dU/dt = (C + D a) U + D g` is at most `|C + D a| |U|max + D G`.
+    ///   (Infinite where `a > 0`.)
     #[inline(never)]
     fn rigorous_bounds<const N: usize, S: ForceBounds>(&self, step: &LinearStep) -> S {
         let LinearStep {
@@ -357,12 +369,73 @@ impl Friction {
                     let coupling = if j == k { 0.0 } else { a[(k, j)].abs() };
                     drive += coupling * extent;
                 }
-                let state = start[k].abs() + drive * h;
+                let growing = start[k].abs() + drive * h;
+                let state = if diagonal < 0.0 {
+                    growing.min(larger(start[k].abs(), drive / -diagonal))
+                } else {
+                    growing
+                };
                 (stiffness + damping * diagonal).abs() * state + damping * drive
             } else {
                 f64::INFINITY
             };
             bounds.put(element.direction, bound, &self.check.cross);
+        }
+        bounds
+    }
+
+    /// [`Friction::energy_bounds`] sized by the model's state count.
+    fn energy_bounds_any<S: ForceBounds>(&self, step: &LinearStep, weights: &StateVector) -> S {
+        match step.system.states {
+            2 => self.energy_bounds::<2, S>(step, weights),
+            3 => self.energy_bounds::<3, S>(step, weights),
+            4 => self.energy_bounds::<4, S>(step, weights),
+            _ => self.energy_bounds::<MAX_STATES, S>(step, weights),
+        }
+    }
+
+    /// For [`Friction::sticking_step`] of a passive model while every branch is at its
+    /// element's state, with held inputs: bounds on the element forces that hold at any
+    /// step size. About the equilibrium `x_e` (`A x_e + B u = 0`) the stored energy
+    /// `E(d) = sum q_j d_j^2 / 2` of `d = x - x_e` never grows. An element force is
+    /// `C U + D dU/dt = C x_e[k] + c.d` with `c_j = C [j = k] + D A_kj`, so by the
+    /// Cauchy-Schwarz inequality in the energy's metric it stays within
+    /// `|C x_e[k]| + sqrt(sum c_j^2 / q_j) sqrt(2 E(d(0)))` over any step. Infinite (or
+    /// NaN, refused alike) without a single equilibrium (a lag at standstill) or where a
+    /// force depends on a state that stores no energy.
+    #[inline(never)]
+    fn energy_bounds<const N: usize, S: ForceBounds>(&self, step: &LinearStep, weights: &StateVector) -> S {
+        let (a, b, u) = (&step.system.a, &step.system.b, step.inputs);
+        // States past the model's count (zero) solve to zero.
+        let n = step.system.states;
+        let system: [[f64; N]; N] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| if i < n { a[(i, j)] } else { f64::from(i == j) })
+        });
+        let forcing: [f64; N] =
+            std::array::from_fn(|i| -(b[(i, 0)] * u[0] + b[(i, 1)] * u[1] + b[(i, 2)] * u[2]));
+        let equilibrium = solve(system, forcing);
+        let twice_energy = equilibrium.map_or(f64::INFINITY, |x_e| {
+            (0..N)
+                .map(|j| weights[j] * (step.start[j] - x_e[j]).powi(2))
+                .sum()
+        });
+        let mut bounds = S::default();
+        for element in &self.present[..self.present_count.min(Direction::COUNT)] {
+            let k = element.state.min(N - 1);
+            let mut metric = 0.0;
+            for j in 0..N {
+                let diagonal = if j == k { element.stiffness } else { 0.0 };
+                let c = diagonal + element.damping * a[(k, j)];
+                if c != 0.0 {
+                    metric += c * c / weights[j];
+                }
+            }
+            let centre = equilibrium.map_or(f64::INFINITY, |x_e| (element.stiffness * x_e[k]).abs());
+            bounds.put(
+                element.direction,
+                centre + (metric * twice_energy).sqrt(),
+                &self.check.cross,
+            );
         }
         bounds
     }
@@ -785,6 +858,36 @@ pub fn force_bound(start: f64, end: f64, start_rate: f64, end_rate: f64, h: f64)
     larger(start.abs(), end.abs()) + 0.25 * h * (start_rate.abs() + end_rate.abs())
 }
 
+/// The solution of `m x = rhs` by Gaussian elimination with partial pivoting; `None` if
+/// `m` is singular or the solution is not finite.
+#[allow(clippy::needless_range_loop)] // rows and columns index the matrix and the vector
+fn solve<const N: usize>(mut m: [[f64; N]; N], mut rhs: [f64; N]) -> Option<[f64; N]> {
+    for col in 0..N {
+        let pivot = (col..N).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
+        if m[pivot][col] == 0.0 {
+            return None;
+        }
+        m.swap(col, pivot);
+        rhs.swap(col, pivot);
+        for row in col + 1..N {
+            let factor = m[row][col] / m[col][col];
+            for j in col..N {
+                m[row][j] -= factor * m[col][j];
+            }
+            rhs[row] -= factor * rhs[col];
+        }
+    }
+    let mut x = [0.0; N];
+    for row in (0..N).rev() {
+        let mut sum = rhs[row];
+        for j in row + 1..N {
+            sum -= m[row][j] * x[j];
+        }
+        x[row] = sum / m[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
 /// The larger of two magnitudes, or NaN if the first is NaN (one comparison, where
 /// `f64::max` also handles NaN in either place): a NaN bound is refused by the limits.
 #[inline(always)]
@@ -1023,5 +1126,114 @@ mod tests {
             }
         }
         assert!(checked_lag_bounded > 0, "no lag-bounded element was checked");
+    }
+
+    /// The models that say they are passive are: at every operating point, light loads
+    /// and reversing included, `Q A + A^T Q` (Q the weights of the stored energy) has no
+    /// positive eigenvalue, so the energy about the equilibrium never grows. And their
+    /// energy bounds hold over steps from 0.1 ms to 10 s, at any load.
+    #[test]
+    fn energy_bounds_of_passive_models_bound_the_force_over_the_step() {
+        use nalgebra::DMatrix;
+        let mut checked = 0;
+        for model in ModelKind::ALL.into_iter().filter(|m| m.equations().passive()) {
+            let parameters = Parameters::default()
+                .with_model(model)
+                .with_friction(FrictionLaw::Brush);
+            let equations = model.equations();
+            let weights = equations.energy_weights(&parameters);
+            let contact = ContactSystem::new(AffineSystem::from_samples(|at| {
+                equations.system(&parameters, &at)
+            }));
+            let coupling = contact.affine().state_coupling();
+            let friction = Friction::new(
+                FrictionLaw::Brush,
+                equations.contact_elements(&parameters),
+                &coupling,
+            )
+            .unwrap()
+            .with_passive_energy(Some(weights));
+            let nominal = parameters.get(Parameter::NominalLoad);
+            for (case, &(vx, load)) in [
+                (0.3, 0.5 * nominal),
+                (12.0, nominal),
+                (-25.0, 1.4 * nominal),
+                (5.0, 1e-3 * nominal),
+            ]
+            .iter()
+            .enumerate()
+            {
+                let mut tire = Tire::new(parameters.clone()).unwrap();
+                let system = tire.system_at(vx, load);
+                let n = system.states;
+                // The stored energy is the sum of squares its weights say.
+                let x0 = StateVector::from_fn(|i, _| {
+                    if i < n {
+                        2e-3 * (1.3 * (i + case) as f64).sin()
+                    } else {
+                        0.0
+                    }
+                });
+                let energy: f64 = (0..n).map(|j| 0.5 * weights[j] * x0[j] * x0[j]).sum();
+                let stored = equations.stored_energy(&parameters, &x0);
+                assert!(
+                    (energy - stored).abs() <= 1e-12 * stored,
+                    "{model:?}: {energy} against {stored}"
+                );
+                let dissipation = DMatrix::from_fn(n, n, |i, j| {
+                    weights[i] * system.a[(i, j)] + system.a[(j, i)] * weights[j]
+                });
+                let largest = dissipation.symmetric_eigenvalues().max();
+                assert!(
+                    largest <= 1e-12 * dissipation.norm(),
+                    "{model:?} vx {vx} Fz {load}: Q A + A^T Q has eigenvalue {largest}"
+                );
+                let u = DrivingVector::new(
+                    0.4 * (case as f64 - 1.5),
+                    0.3 - 0.2 * case as f64,
+                    -0.1 * case as f64,
+                );
+                for h in [1e-4, 1e-3, 0.02, 0.3, 10.0] {
+                    let map = StepMap::new(&system, contact.blocks(), h);
+                    let x1 = map.advance(&x0, &u, None);
+                    let step = LinearStep {
+                        system: &system,
+                        blocks: contact.blocks(),
+                        transition: &map.transition,
+                        start: &x0,
+                        end: &x1,
+                        inputs: &u,
+                        input_rates: &DrivingVector::zeros(),
+                        held: true,
+                        h,
+                    };
+                    let bounds: [f64; Direction::COUNT] =
+                        friction.energy_bounds::<MAX_STATES, _>(&step, &weights);
+                    let mut largest = [0.0_f64; Direction::COUNT];
+                    for i in 0..=400 {
+                        let t = h * f64::from(i) / 400.0;
+                        let x = StepMap::new(&system, contact.blocks(), t).advance(&x0, &u, None);
+                        let rates = system.state_rates(&x, &u);
+                        for element in &friction.present[..friction.present_count] {
+                            let k = element.state;
+                            let force = element.stiffness * x[k] + element.damping * rates[k];
+                            largest[element.direction] = largest[element.direction].max(force.abs());
+                        }
+                    }
+                    for element in &friction.present[..friction.present_count] {
+                        let d = element.direction;
+                        assert!(bounds[d].is_finite(), "{model:?} vx {vx} h {h}: no bound");
+                        assert!(
+                            largest[d] <= bounds[d] * (1.0 + 1e-12) + 1e-12,
+                            "{model:?} vx {vx} h {h} direction {d}: force {} above its bound {}",
+                            largest[d],
+                            bounds[d]
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 0, "no passive model was checked");
     }
 }

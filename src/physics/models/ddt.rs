@@ -87,6 +87,12 @@ impl TireLagModel for Ddt {
         ]
     }
 
+    /// The yaw deflection feeds the lateral one (`vx uPsi`): energy can flow in through
+    /// that coupling.
+    fn passive(&self) -> bool {
+        false
+    }
+
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64 {
         0.5 * p.get(Parameter::YawStiffness) * x[YAW].powi(2)
             + 0.5 * p.lateral_stiffness() * x[LATERAL].powi(2)

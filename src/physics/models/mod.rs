@@ -66,8 +66,26 @@ pub trait TireLagModel: Sync {
     /// follow; the system must stay affine in the operating point's coordinates.
     fn system(&self, p: &Parameters, at: &OperatingPoint) -> StateSpace;
 
-    /// Mechanical energy stored in the tire (springs and moving masses), J.
+    /// Mechanical energy stored in the tire (springs and moving masses), J: a sum of
+    /// squares of the states, `sum q_j x_j^2 / 2`.
     fn stored_energy(&self, p: &Parameters, x: &StateVector) -> f64;
+
+    /// Whether the model is passive: built of springs, masses, dampers and relaxing
+    /// deflections only, so that under held inputs the stored energy of its distance from
+    /// the equilibrium never grows, at any operating point. DDT is not: its yaw
+    /// deflection drives the lateral one through `vx`.
+    fn passive(&self) -> bool {
+        true
+    }
+
+    /// The weights `q` of [`TireLagModel::stored_energy`], `E = sum q_j x_j^2 / 2`.
+    fn energy_weights(&self, p: &Parameters) -> StateVector {
+        StateVector::from_fn(|j, _| {
+            let mut unit = StateVector::zeros();
+            unit[j] = 1.0;
+            2.0 * self.stored_energy(p, &unit)
+        })
+    }
 
     /// The elements through which the model touches the road (SPEC 4c), by direction;
     /// each gets a friction slider in series.
