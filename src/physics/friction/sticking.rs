@@ -8,6 +8,31 @@ use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
 use crate::physics::stepper::{Blocks, StepKey, StepMap};
 
+/// `$call` with the const `$n` set to the model's state count `$states` (2, 3 or 4, else
+/// [`MAX_STATES`]): the bounds work on fixed-size arrays of the model's own size.
+macro_rules! by_state_count {
+    ($states:expr, $n:ident => $call:expr) => {
+        match $states {
+            2 => {
+                const $n: usize = 2;
+                $call
+            }
+            3 => {
+                const $n: usize = 3;
+                $call
+            }
+            4 => {
+                const $n: usize = 4;
+                $call
+            }
+            _ => {
+                const $n: usize = MAX_STATES;
+                $call
+            }
+        }
+    };
+}
+
 /// What the sticking check needs of an element.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct PresentElement {
@@ -302,12 +327,7 @@ impl Friction {
     /// [`Friction::together_bounds`] where the rows are made, else
     /// [`Friction::together_bounds_direct`], sized by the model's state count.
     fn together_bounds_any<S: ForceBounds>(&self, step: &LinearStep, held: bool) -> S {
-        match step.system.states {
-            2 => self.together_bounds_sized::<2, S>(step, held),
-            3 => self.together_bounds_sized::<3, S>(step, held),
-            4 => self.together_bounds_sized::<4, S>(step, held),
-            _ => self.together_bounds_sized::<MAX_STATES, S>(step, held),
-        }
+        by_state_count!(step.system.states, N => self.together_bounds_sized::<N, S>(step, held))
     }
 
     /// [`Friction::together_bounds_any`] for a model of `N` states (out of line: the
@@ -323,12 +343,7 @@ impl Friction {
 
     /// [`Friction::rigorous_bounds`] sized by the model's state count.
     fn rigorous_bounds_any<S: ForceBounds>(&self, step: &LinearStep) -> S {
-        match step.system.states {
-            2 => self.rigorous_bounds::<2, S>(step),
-            3 => self.rigorous_bounds::<3, S>(step),
-            4 => self.rigorous_bounds::<4, S>(step),
-            _ => self.rigorous_bounds::<MAX_STATES, S>(step),
-        }
+        by_state_count!(step.system.states, N => self.rigorous_bounds::<N, S>(step))
     }
 
     /// For [`Friction::sticking_step`] while every branch is at its element's state, with
@@ -386,12 +401,7 @@ impl Friction {
 
     /// [`Friction::energy_bounds`] sized by the model's state count.
     fn energy_bounds_any<S: ForceBounds>(&self, step: &LinearStep, weights: &StateVector) -> S {
-        match step.system.states {
-            2 => self.energy_bounds::<2, S>(step, weights),
-            3 => self.energy_bounds::<3, S>(step, weights),
-            4 => self.energy_bounds::<4, S>(step, weights),
-            _ => self.energy_bounds::<MAX_STATES, S>(step, weights),
-        }
+        by_state_count!(step.system.states, N => self.energy_bounds::<N, S>(step, weights))
     }
 
     /// For [`Friction::sticking_step`] of a passive model while every branch is at its
@@ -448,12 +458,7 @@ impl Friction {
         step: &LinearStep,
         offsets: [[f64; MAX_BRANCHES]; Direction::COUNT],
     ) -> Option<[[f64; MAX_BRANCHES]; Direction::COUNT]> {
-        match step.system.states {
-            2 => self.sticking_bounds::<2>(step, offsets),
-            3 => self.sticking_bounds::<3>(step, offsets),
-            4 => self.sticking_bounds::<4>(step, offsets),
-            _ => self.sticking_bounds::<MAX_STATES>(step, offsets),
-        }
+        by_state_count!(step.system.states, N => self.sticking_bounds::<N>(step, offsets))
     }
 
     /// [`Friction::sticking_step`] for a step too long for one force bound, while every
@@ -901,6 +906,65 @@ mod tests {
     use crate::physics::stepper::{AffineSystem, ContactSystem};
     use crate::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
 
+    /// The states of test case `case` for a model of `n` states.
+    fn test_states(case: usize, n: usize) -> StateVector {
+        StateVector::from_fn(|i, _| {
+            if i < n {
+                2e-3 * (1.3 * (i + case) as f64).sin()
+            } else {
+                0.0
+            }
+        })
+    }
+
+    /// Held steps of each of `lengths` from test case `case` (its states, and inputs of
+    /// its own): for each step its length, the bounds `bound` gives for it, and the largest
+    /// magnitude of each direction's element force at 401 points of the exact solution.
+    fn held_steps(
+        friction: &Friction,
+        system: &StateSpace,
+        blocks: &Blocks,
+        case: usize,
+        lengths: &[f64],
+        bound: impl Fn(&LinearStep) -> [f64; Direction::COUNT],
+    ) -> Vec<(f64, [f64; Direction::COUNT], [f64; Direction::COUNT])> {
+        let x0 = test_states(case, system.states);
+        let u = DrivingVector::new(
+            0.4 * (case as f64 - 1.5),
+            0.3 - 0.2 * case as f64,
+            -0.1 * case as f64,
+        );
+        let mut steps = Vec::new();
+        for &h in lengths {
+            let map = StepMap::new(system, blocks, h);
+            let x1 = map.advance(&x0, &u, None);
+            let step = LinearStep {
+                system,
+                blocks,
+                transition: &map.transition,
+                start: &x0,
+                end: &x1,
+                inputs: &u,
+                input_rates: &DrivingVector::zeros(),
+                held: true,
+                h,
+            };
+            let mut largest = [0.0_f64; Direction::COUNT];
+            for i in 0..=400 {
+                let t = h * f64::from(i) / 400.0;
+                let x = StepMap::new(system, blocks, t).advance(&x0, &u, None);
+                let rates = system.state_rates(&x, &u);
+                for element in &friction.present[..friction.present_count] {
+                    let k = element.state;
+                    let force = element.stiffness * x[k] + element.damping * rates[k];
+                    largest[element.direction] = largest[element.direction].max(force.abs());
+                }
+            }
+            steps.push((h, bound(&step), largest));
+        }
+        steps
+    }
+
     /// After a slide the branches differ by offsets. A long step with every group
     /// sticking carries them part by part and agrees with short steps.
     #[test]
@@ -1065,45 +1129,11 @@ mod tests {
             {
                 let mut tire = Tire::new(parameters.clone()).unwrap();
                 let system = tire.system_at(vx, load);
-                let n = system.states;
-                let x0 = StateVector::from_fn(|i, _| {
-                    if i < n {
-                        2e-3 * (1.3 * (i + case) as f64).sin()
-                    } else {
-                        0.0
-                    }
+                let lengths = [1e-4, 1e-3, 0.02, 0.3, 2.0];
+                let steps = held_steps(&friction, &system, contact.blocks(), case, &lengths, |step| {
+                    friction.rigorous_bounds::<MAX_STATES, _>(step)
                 });
-                let u = DrivingVector::new(
-                    0.4 * (case as f64 - 1.5),
-                    0.3 - 0.2 * case as f64,
-                    -0.1 * case as f64,
-                );
-                for h in [1e-4, 1e-3, 0.02, 0.3, 2.0] {
-                    let map = StepMap::new(&system, contact.blocks(), h);
-                    let x1 = map.advance(&x0, &u, None);
-                    let step = LinearStep {
-                        system: &system,
-                        blocks: contact.blocks(),
-                        transition: &map.transition,
-                        start: &x0,
-                        end: &x1,
-                        inputs: &u,
-                        input_rates: &DrivingVector::zeros(),
-                        held: true,
-                        h,
-                    };
-                    let bounds: [f64; Direction::COUNT] = friction.rigorous_bounds::<MAX_STATES, _>(&step);
-                    let mut largest = [0.0_f64; Direction::COUNT];
-                    for i in 0..=400 {
-                        let t = h * f64::from(i) / 400.0;
-                        let x = StepMap::new(&system, contact.blocks(), t).advance(&x0, &u, None);
-                        let rates = system.state_rates(&x, &u);
-                        for element in &friction.present[..friction.present_count] {
-                            let k = element.state;
-                            let force = element.stiffness * x[k] + element.damping * rates[k];
-                            largest[element.direction] = largest[element.direction].max(force.abs());
-                        }
-                    }
+                for (h, bounds, largest) in steps {
                     for (e, element) in friction.present[..friction.present_count].iter().enumerate() {
                         let d = element.direction;
                         assert!(
@@ -1167,13 +1197,7 @@ mod tests {
                 let system = tire.system_at(vx, load);
                 let n = system.states;
                 // The stored energy is the sum of squares its weights say.
-                let x0 = StateVector::from_fn(|i, _| {
-                    if i < n {
-                        2e-3 * (1.3 * (i + case) as f64).sin()
-                    } else {
-                        0.0
-                    }
-                });
+                let x0 = test_states(case, n);
                 let energy: f64 = (0..n).map(|j| 0.5 * weights[j] * x0[j] * x0[j]).sum();
                 let stored = equations.stored_energy(&parameters, &x0);
                 assert!(
@@ -1188,38 +1212,11 @@ mod tests {
                     largest <= 1e-12 * dissipation.norm(),
                     "{model:?} vx {vx} Fz {load}: Q A + A^T Q has eigenvalue {largest}"
                 );
-                let u = DrivingVector::new(
-                    0.4 * (case as f64 - 1.5),
-                    0.3 - 0.2 * case as f64,
-                    -0.1 * case as f64,
-                );
-                for h in [1e-4, 1e-3, 0.02, 0.3, 10.0] {
-                    let map = StepMap::new(&system, contact.blocks(), h);
-                    let x1 = map.advance(&x0, &u, None);
-                    let step = LinearStep {
-                        system: &system,
-                        blocks: contact.blocks(),
-                        transition: &map.transition,
-                        start: &x0,
-                        end: &x1,
-                        inputs: &u,
-                        input_rates: &DrivingVector::zeros(),
-                        held: true,
-                        h,
-                    };
-                    let bounds: [f64; Direction::COUNT] =
-                        friction.energy_bounds::<MAX_STATES, _>(&step, &weights);
-                    let mut largest = [0.0_f64; Direction::COUNT];
-                    for i in 0..=400 {
-                        let t = h * f64::from(i) / 400.0;
-                        let x = StepMap::new(&system, contact.blocks(), t).advance(&x0, &u, None);
-                        let rates = system.state_rates(&x, &u);
-                        for element in &friction.present[..friction.present_count] {
-                            let k = element.state;
-                            let force = element.stiffness * x[k] + element.damping * rates[k];
-                            largest[element.direction] = largest[element.direction].max(force.abs());
-                        }
-                    }
+                let lengths = [1e-4, 1e-3, 0.02, 0.3, 10.0];
+                let steps = held_steps(&friction, &system, contact.blocks(), case, &lengths, |step| {
+                    friction.energy_bounds::<MAX_STATES, _>(step, &weights)
+                });
+                for (h, bounds, largest) in steps {
                     for element in &friction.present[..friction.present_count] {
                         let d = element.direction;
                         assert!(bounds[d].is_finite(), "{model:?} vx {vx} h {h}: no bound");
