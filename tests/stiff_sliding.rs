@@ -97,7 +97,7 @@ fn a_stiff_light_tire_far_from_its_limit_takes_the_linear_step() {
 
 mod random_tires {
     use proptest::prelude::*;
-    use tirelag::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters, Tire};
+    use tirelag::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
 
     /// A valid tire of any model with a friction limit: deflection stiffnesses from 1e4 to
     /// 1e8 N/m, contact and ring masses from 1 to 100 kg, friction coefficients from 0.01
@@ -170,6 +170,62 @@ mod random_tires {
                 prop_assert!(tire.outputs().iter().all(|v| v.is_finite()));
                 prop_assert!(tire.states().iter().all(|v| v.is_finite()));
             }
+        }
+    }
+
+    /// Fewer tires for the closed cycle: three seconds of 1 ms steps each.
+    fn cycle_config() -> ProptestConfig {
+        ProptestConfig {
+            cases: 32,
+            ..config()
+        }
+    }
+
+    proptest! {
+        #![proptest_config(cycle_config())]
+
+        /// At standstill such a tire is passive: the wheel moved on a circle (vy = V cos(W t),
+        /// vsx = V sin(W t), period 1 s, radius from half to twenty times the elastic travel
+        /// to the limit, inputs ramped between 1 ms samples so the outputs there are exact)
+        /// takes in energy over a cycle, never gives it back: after two cycles the work
+        /// `E = -integral (Fx vsx + Fy vy) dt` over the third, by the trapezoidal rule, is
+        /// >= 0 within its quadrature error (`|E_h - E_2h|`, E_2h from every other sample).
+        #[test]
+        fn a_closed_cycle_returns_no_energy(p in stiff_tire(), load in 0.0f64..5.0, radius in -0.3f64..1.3) {
+            let fz = 10f64.powf(load);
+            let fmax = p.get(Parameter::LateralFriction) * fz;
+            let travel = fmax * p.get(Parameter::LateralRelaxationLength) / p.get(Parameter::CorneringStiffness);
+            let radius = 10f64.powf(radius) * travel;
+            let (per_cycle, cycles) = (1000, 3);
+            let h = 1.0 / per_cycle as f64;
+            let w = std::f64::consts::TAU;
+            let speed = |k: usize| {
+                let t = k as f64 * h;
+                (radius * w * (w * t).cos(), radius * w * (w * t).sin())
+            };
+            let mut tire = Tire::new(p).unwrap();
+            tire.set_input(Input::Vx, 0.0);
+            tire.set_input(Input::Fz, fz);
+            let mut power = vec![0.0];
+            for k in 0..per_cycle * cycles {
+                let ((vy, vsx), (vy_next, vsx_next)) = (speed(k), speed(k + 1));
+                for (input, value, next) in [(Input::Vy, vy, vy_next), (Input::Vsx, vsx, vsx_next)] {
+                    tire.set_input(input, value);
+                    tire.set_input_rate(input, (next - value) / h);
+                }
+                let stepped = tire.step(h);
+                prop_assert!(stepped.is_ok(), "{stepped:?} at step {k}");
+                let outputs = tire.outputs();
+                power.push(outputs[Output::Fx as usize] * vsx_next + outputs[Output::Fy as usize] * vy_next);
+            }
+            let last = &power[(cycles - 1) * per_cycle..];
+            let trapezoid = |samples: &[f64], spacing: f64| {
+                spacing * (samples.iter().sum::<f64>() - 0.5 * (samples[0] + samples[samples.len() - 1]))
+            };
+            let fine = -trapezoid(last, h);
+            let coarse = -trapezoid(&last.iter().step_by(2).copied().collect::<Vec<_>>(), 2.0 * h);
+            let error = (fine - coarse).abs() + 1e-9 * fmax * radius * w;
+            prop_assert!(fine >= -error, "E = {fine} J (E_2h {coarse} J), Fmax {fmax} N, radius {radius} m");
         }
     }
 }
