@@ -56,6 +56,11 @@ const EXPLICIT_MARGIN: usize = 64;
 /// few per time scale of the motion instead.
 const EXPLICIT_CAP: usize = 256;
 
+/// A step longer than this many time constants of its fastest sliding group
+/// ([`SlidingStep::turn_rate`]) goes to the stiff method at once: the explicit one, whose
+/// substeps stay below two of them, would need more than its cap for stability alone.
+const STIFF_STEP: f64 = 2.0 * EXPLICIT_CAP as f64;
+
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
 
@@ -366,7 +371,9 @@ impl<'a> SlidingStep<'a> {
 
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
     /// of the step. Explicitly first; a step the explicit method cannot finish (a stiff
-    /// slide) is taken again from its start by the linearly implicit method.
+    /// slide) is taken again from its start by the linearly implicit method, and one whose
+    /// sliding groups turn their forces within a fraction of the step
+    /// ([`SlidingStep::turn_rate`]) is taken by it from the start.
     pub fn integrate(
         &self,
         x: &mut StateVector,
@@ -374,11 +381,47 @@ impl<'a> SlidingStep<'a> {
         h: f64,
     ) -> Result<(), NotConverged> {
         self.stiff.set(false);
-        if self.integrate_by_current_method(x, sliders, h).is_ok() {
+        // A sliding group that turns its force far faster than the step (a stiff tire at
+        // a light load): the explicit method would crawl.
+        let crawls = h * self.turn_rate(x, sliders) > STIFF_STEP;
+        if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
             return Ok(());
         }
         self.stiff.set(true);
         self.integrate_by_current_method(x, sliders, h)
+    }
+
+    /// The fastest rate at which a sliding group moves its force at these states, 1/s: a
+    /// spring group's force rate across the ellipse when sticking, `sum |K_k g_k| / L_k`;
+    /// a damped group's relaxation `C / D`. The explicit method's substeps stay below a
+    /// few of its time constants.
+    fn turn_rate(&self, x: &StateVector, sliders: &SliderState) -> f64 {
+        let z = self.layout.pack(x, sliders);
+        let states = self.layout.model_states(&z);
+        let rates = self.model_rates(&states, &self.inputs);
+        let mut fastest = 0.0_f64;
+        for slot in self.slots() {
+            if !sliders.sliding[slot.group][slot.branch] {
+                continue;
+            }
+            if slot.input.damped() {
+                // A sliding damper relaxes its element at C / D.
+                let rate = slot
+                    .input
+                    .members()
+                    .map(|k| slot.input.stiffness[k] / slot.input.damping[k])
+                    .fold(0.0, f64::max);
+                fastest = fastest.max(rate);
+                continue;
+            }
+            let input = self.slot_input(slot, &states, &rates, &z);
+            let rate: f64 = input
+                .members()
+                .map(|k| (input.stiffness[k] * input.sticking_rate[k] / input.limit[k]).abs())
+                .sum();
+            fastest = fastest.max(rate);
+        }
+        fastest
     }
 
     /// [`SlidingStep::integrate`] by the method [`SlidingStep::stiff`] says.
