@@ -2,7 +2,7 @@
 //! falsi, Illinois), and whether a limit is touched and left again between samples (a
 //! parabola through three samples, then a golden-section search on the accurate solution).
 
-use super::{Events, Modes, SlidingStep, Vector};
+use super::{Events, Modes, NotConverged, SlidingStep, Vector};
 use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::{Group, MAX_BRANCHES};
 
@@ -167,18 +167,18 @@ impl SlidingStep<'_> {
         (t, z, length, modes): (f64, &Vector, f64, &Modes),
         (start_rates, start_events, end_events): (&Vector, &Events, &Events),
         candidate: impl Fn(usize, usize) -> bool,
-    ) -> Option<(f64, usize, usize, Option<Vector>)> {
+    ) -> Result<Option<(f64, usize, usize, Option<Vector>)>, NotConverged> {
         let branches = self.friction.branches.len();
         let candidates = || (0..Group::COUNT).flat_map(move |g| (0..branches).map(move |i| (g, i)));
         let mut any = false;
         for (g, i) in candidates().filter(|&(g, i)| candidate(g, i)) {
             if start_events[g][i] > EVENT_TOLERANCE {
-                return Some((0.0, g, i, None));
+                return Ok(Some((0.0, g, i, None)));
             }
             any = true;
         }
         if !any {
-            return None;
+            return Ok(None);
         }
         let level = 0.5 * EVENT_TOLERANCE;
         let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
@@ -189,33 +189,35 @@ impl SlidingStep<'_> {
                 .filter(|&tau| tau > 0.0 && tau < length)
                 .unwrap_or_else(|| length * (level - start) / (end - start))
         };
-        let (mut g, mut i) = candidates().filter(|&(g, i)| candidate(g, i)).min_by(|a, b| {
+        let Some((mut g, mut i)) = candidates().filter(|&(g, i)| candidate(g, i)).min_by(|a, b| {
             let (ea, eb) = (
                 estimate(a.0, a.1, end_events[a.0][a.1], length),
                 estimate(b.0, b.1, end_events[b.0][b.1], length),
             );
             ea.total_cmp(&eb)
-        })?;
+        }) else {
+            return Ok(None);
+        };
         let (mut hi, mut end) = (length, end_events[g][i]);
         for _ in 0..Group::COUNT * MAX_BRANCHES {
             let guess = estimate(g, i, end, hi);
-            let (at, reached) = self.crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), guess);
+            let (at, reached) = self.crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), guess)?;
             let Some((z_at, events_at)) = reached else {
-                return Some((at, g, i, None));
+                return Ok(Some((at, g, i, None)));
             };
             let earlier = candidates()
                 .find(|&(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
             match earlier {
-                None => return Some((at, g, i, Some(z_at))),
+                None => return Ok(Some((at, g, i, Some(z_at)))),
                 Some((h, j)) => {
                     (g, i, hi, end) = (h, j, at, events_at[h][j]);
                 }
             }
         }
         let at = self
-            .crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), hi)
+            .crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), hi)?
             .0;
-        Some((at, g, i, None))
+        Ok(Some((at, g, i, None)))
     }
 
     /// The rates of every group's event value along the motion at the start of a
@@ -259,7 +261,7 @@ impl SlidingStep<'_> {
         (g, i): (usize, usize),
         (start, end): (f64, f64),
         guess: f64,
-    ) -> (f64, Option<(Vector, Events)>) {
+    ) -> Result<(f64, Option<(Vector, Events)>), NotConverged> {
         let level = 0.5 * EVENT_TOLERANCE;
         // Accepted: an event value in (level, 2 level]; Newton aims at its middle.
         let aim = 1.5 * level;
@@ -278,16 +280,16 @@ impl SlidingStep<'_> {
             if !(tau > lo && tau < hi) {
                 tau = 0.5 * (lo + hi);
             }
-            let Some(z_tau) = self.substep_plain(t, z, tau, modes) else {
-                break;
-            };
+            // A point inside the substep that the method cannot reach to the tolerance:
+            // the event cannot be placed within this substep (not at its end either).
+            let z_tau = self.substep_plain(t, z, tau, modes).ok_or(NotConverged)?;
             let (rates, events) = self.rates(t + tau, &z_tau, modes);
             let value = events[g][i];
             let e = value - level;
             // Past the crossing by less than the event tolerance itself: as close as
             // the event is defined.
             if e > 0.0 && e <= level {
-                return (tau, Some((z_tau, events)));
+                return Ok((tau, Some((z_tau, events))));
             }
             let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length)[g][i];
             guess = (slope > 0.0).then(|| tau + (aim - value) / slope);
@@ -307,6 +309,6 @@ impl SlidingStep<'_> {
                 side = -1;
             }
         }
-        (hi, reached)
+        Ok((hi, reached))
     }
 }

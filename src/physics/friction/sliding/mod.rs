@@ -58,8 +58,10 @@ const EXPLICIT_CAP: usize = 256;
 
 /// A step longer than this many time constants of its fastest sliding group
 /// ([`SlidingStep::turn_rate`]) goes to the stiff method at once: the explicit one, whose
-/// substeps stay below two of them, would need more than its cap for stability alone.
-const STIFF_STEP: f64 = 2.0 * EXPLICIT_CAP as f64;
+/// substeps stay below two of them, would need more than eight substeps for stability
+/// alone, where the stiff one takes a few. (A millisecond step of a tire at its nominal
+/// load is below 4, and stays explicit.)
+const STIFF_STEP: f64 = 16.0;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
@@ -498,6 +500,15 @@ impl<'a> SlidingStep<'a> {
                 (&start_rates, &start_events, &end_events),
                 candidate,
             );
+            // An event inside the substep that could not be located (a point inside it
+            // not reached to the tolerance): a shorter substep.
+            let Ok(first) = first else {
+                length *= 0.25;
+                if length <= 1e-15 * h {
+                    return Err(NotConverged);
+                }
+                continue;
+            };
             match first {
                 None => {
                     z = z_end;
