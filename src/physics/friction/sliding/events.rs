@@ -160,7 +160,9 @@ impl SlidingStep<'_> {
     /// candidate past its tolerance at the start changes at once. Otherwise each candidate's
     /// crossing is estimated from its event value and rate at the start (one difference
     /// for all), the earliest estimate is located, and a candidate already past its
-    /// tolerance there crossed before it and is located in turn.
+    /// tolerance there crossed before it and is located in turn. `NotConverged` where a
+    /// point inside the substep cannot be reached to the tolerance: the caller shortens
+    /// the substep.
     #[allow(clippy::type_complexity)]
     pub(super) fn earliest_crossing(
         &self,
@@ -247,10 +249,11 @@ impl SlidingStep<'_> {
     }
 
     /// The time in `(0, length]` at which `event` of group `g`, branch `i` crosses half the
-    /// event tolerance, and the state and event values there if they were computed: Newton's method on the
-    /// accurate solution (from `guess`, the event's rate along the motion by a difference),
-    /// kept inside a shrinking bracket (regula falsi, Illinois, where a Newton step would
-    /// leave it).
+    /// event tolerance, and the state and event values there if they were computed:
+    /// Newton's method on the accurate solution (from `guess`, the event's rate along the
+    /// motion by a difference), kept inside a shrinking bracket (regula falsi, Illinois,
+    /// where a Newton step would leave it). `NotConverged` if a trial point cannot be
+    /// reached to the tolerance.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn crossing(
         &self,
