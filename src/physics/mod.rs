@@ -13,6 +13,7 @@
 pub mod brush;
 pub mod friction;
 pub mod load;
+mod lu;
 pub mod models;
 pub mod parameters;
 pub mod signals;

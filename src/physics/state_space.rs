@@ -60,9 +60,24 @@ impl StateSpace {
         y
     }
 
-    /// `dx/dt = A x + B u`.
+    /// `dx/dt = A x + B u`, over the model's own states (the unused rows and columns of
+    /// the fixed-size storage are zero: skipped; the step with sliding evaluates this many
+    /// times per step).
+    #[inline]
     pub fn state_rates(&self, x: &StateVector, u: &DrivingVector) -> StateVector {
-        self.a * x + self.b * u
+        let n = self.states.min(MAX_STATES);
+        // Column-major storage: entry (i, j) at i + MAX_STATES j.
+        let (a, b) = (self.a.as_slice(), self.b.as_slice());
+        let mut rates = StateVector::zeros();
+        for i in 0..n {
+            let mut states = a[i] * x[0];
+            for j in 1..n {
+                states += a[i + MAX_STATES * j] * x[j];
+            }
+            let inputs = b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
+            rates[i] = states + inputs;
+        }
+        rates
     }
 
     /// `dy/dt = C dx/dt + D du/dt`.

@@ -115,6 +115,22 @@ impl GroupInput {
         force
     }
 
+    /// How fast the group moves its force while it slides, 1/s: springs turn it across
+    /// the ellipse at about their sticking force rate, `sum |K_k g_k| / L_k`; spring-dampers
+    /// relax at `max K_k / Dw_k`. (The explicit integration's substeps stay below a few of
+    /// its time constants.)
+    pub fn sliding_rate(&self) -> f64 {
+        if self.damped() {
+            self.members()
+                .map(|k| self.stiffness[k] / self.damping[k])
+                .fold(0.0, f64::max)
+        } else {
+            self.members()
+                .map(|k| (self.stiffness[k] * self.sticking_rate[k] / self.limit[k]).abs())
+                .sum()
+        }
+    }
+
     /// Rates, forces and event value in the given mode.
     #[inline]
     pub fn evaluate(&self, sliding: bool) -> GroupOutput {

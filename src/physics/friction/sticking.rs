@@ -4,6 +4,7 @@
 //! ([`Friction::prepare`]).
 
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
+use crate::physics::lu::Factors;
 use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
 use crate::physics::stepper::{Blocks, StepKey, StepMap};
@@ -178,12 +179,7 @@ impl Friction {
     /// [`Friction::prepare`] at the same point for a second step: the rows.
     #[inline(never)]
     fn make_rows(&mut self, system: &StateSpace) {
-        match system.states {
-            2 => self.prepare_rows::<2>(system),
-            3 => self.prepare_rows::<3>(system),
-            4 => self.prepare_rows::<4>(system),
-            _ => self.prepare_rows::<MAX_STATES>(system),
-        }
+        by_state_count!(system.states, N => self.prepare_rows::<N>(system));
         self.check.rows_ready = true;
     }
 
@@ -416,14 +412,13 @@ impl Friction {
     #[inline(never)]
     fn energy_bounds<const N: usize, S: ForceBounds>(&self, step: &LinearStep, weights: &StateVector) -> S {
         let (a, b, u) = (&step.system.a, &step.system.b, step.inputs);
-        // States past the model's count (zero) solve to zero.
-        let n = step.system.states;
-        let system: [[f64; N]; N] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| if i < n { a[(i, j)] } else { f64::from(i == j) })
-        });
+        let system: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| a[(i, j)]));
         let forcing: [f64; N] =
             std::array::from_fn(|i| -(b[(i, 0)] * u[0] + b[(i, 1)] * u[1] + b[(i, 2)] * u[2]));
-        let equilibrium = solve(system, forcing);
+        // Over the model's own states; those past its count (zero) stay zero.
+        let equilibrium = Factors::new(system, step.system.states.min(N))
+            .map(|factors| factors.solve(forcing))
+            .filter(|x_e| x_e.iter().all(|v| v.is_finite()));
         let twice_energy = equilibrium.map_or(f64::INFINITY, |x_e| {
             (0..N)
                 .map(|j| weights[j] * (step.start[j] - x_e[j]).powi(2))
@@ -861,36 +856,6 @@ fn decoupled(system: &StateSpace, k: usize) -> bool {
 /// event.
 pub fn force_bound(start: f64, end: f64, start_rate: f64, end_rate: f64, h: f64) -> f64 {
     larger(start.abs(), end.abs()) + 0.25 * h * (start_rate.abs() + end_rate.abs())
-}
-
-/// The solution of `m x = rhs` by Gaussian elimination with partial pivoting; `None` if
-/// `m` is singular or the solution is not finite.
-#[allow(clippy::needless_range_loop)] // rows and columns index the matrix and the vector
-fn solve<const N: usize>(mut m: [[f64; N]; N], mut rhs: [f64; N]) -> Option<[f64; N]> {
-    for col in 0..N {
-        let pivot = (col..N).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
-        if m[pivot][col] == 0.0 {
-            return None;
-        }
-        m.swap(col, pivot);
-        rhs.swap(col, pivot);
-        for row in col + 1..N {
-            let factor = m[row][col] / m[col][col];
-            for j in col..N {
-                m[row][j] -= factor * m[col][j];
-            }
-            rhs[row] -= factor * rhs[col];
-        }
-    }
-    let mut x = [0.0; N];
-    for row in (0..N).rev() {
-        let mut sum = rhs[row];
-        for j in row + 1..N {
-            sum -= m[row][j] * x[j];
-        }
-        x[row] = sum / m[row][row];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// The larger of two magnitudes, or NaN if the first is NaN (one comparison, where

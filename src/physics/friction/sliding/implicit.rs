@@ -14,6 +14,7 @@
 use super::events::InteriorSearch;
 use super::extrapolation::Row;
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use crate::physics::lu::Factors;
 
 /// Step counts of the rows (the harmonic sequence).
 pub(super) const IMPLICIT_SEQUENCE: [usize; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10];
@@ -91,96 +92,5 @@ impl SlidingStep<'_> {
             .iter()
             .all(|v| v.is_finite())
             .then_some((current, interior, closest, s))
-    }
-}
-
-/// The LU factors of a matrix over the first `size` entries, with partial pivoting.
-struct Factors {
-    lu: Matrix,
-    pivots: [usize; SIZE],
-    size: usize,
-}
-
-impl Factors {
-    /// `None` if the matrix is singular (or not finite).
-    fn new(mut lu: Matrix, size: usize) -> Option<Self> {
-        let mut pivots = [0; SIZE];
-        for k in 0..size {
-            let p = (k..size).fold(k, |best, r| {
-                if lu[r][k].abs() > lu[best][k].abs() {
-                    r
-                } else {
-                    best
-                }
-            });
-            let pivot = lu[p][k];
-            if !(pivot != 0.0 && pivot.is_finite()) {
-                return None;
-            }
-            lu.swap(k, p);
-            pivots[k] = p;
-            for r in k + 1..size {
-                let factor = lu[r][k] / pivot;
-                lu[r][k] = factor;
-                for c in k + 1..size {
-                    lu[r][c] -= factor * lu[k][c];
-                }
-            }
-        }
-        Some(Self { lu, pivots, size })
-    }
-
-    fn solve(&self, mut b: Vector) -> Vector {
-        let (lu, size) = (&self.lu, self.size);
-        // P A = L U: the row exchanges in order, then L and U.
-        for k in 0..size {
-            b.swap(k, self.pivots[k]);
-        }
-        for k in 0..size {
-            for r in k + 1..size {
-                b[r] -= lu[r][k] * b[k];
-            }
-        }
-        for k in (0..size).rev() {
-            let mut sum = b[k];
-            for c in k + 1..size {
-                sum -= lu[k][c] * b[c];
-            }
-            b[k] = sum / lu[k][k];
-        }
-        b
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The factors solve a system that needs row exchanges, to rounding.
-    #[test]
-    fn factors_solve_with_row_exchanges() {
-        let size = 4;
-        let rows = [
-            [0.0, 2.0, 1.0, -1.0],
-            [3.0, 0.5, 0.0, 2.0],
-            [1.0, 1.0, 4.0, 0.0],
-            [-2.0, 0.0, 1.0, 5.0],
-        ];
-        let mut matrix = [[0.0; SIZE]; SIZE];
-        for r in 0..size {
-            matrix[r][..size].copy_from_slice(&rows[r]);
-        }
-        let solution = [1.0, -2.0, 0.5, 3.0];
-        let mut b = [0.0; SIZE];
-        for r in 0..size {
-            b[r] = (0..size).map(|c| rows[r][c] * solution[c]).sum();
-        }
-        let x = Factors::new(matrix, size).expect("regular").solve(b);
-        for r in 0..size {
-            assert!((x[r] - solution[r]).abs() < 1e-14, "{r}: {}", x[r]);
-        }
-        let mut singular = matrix;
-        singular[3] = [0.0; SIZE];
-        assert!(Factors::new(singular, size).is_none());
     }
 }

@@ -57,7 +57,7 @@ const EXPLICIT_MARGIN: usize = 64;
 const EXPLICIT_CAP: usize = 256;
 
 /// A step longer than this many time constants of its fastest sliding group
-/// ([`SlidingStep::turn_rate`]) goes to the stiff method at once: the explicit one, whose
+/// ([`GroupInput::sliding_rate`]) goes to the stiff method at once: the explicit one, whose
 /// substeps stay below two of them, would need more than eight substeps for stability
 /// alone, where the stiff one takes a few. (A millisecond step of a tire at its nominal
 /// load is below 4, and stays explicit.)
@@ -223,6 +223,9 @@ pub struct SlidingStep<'a> {
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
     stiff: Cell<bool>,
+    /// How fast the groups found sliding at the start move their forces, 1/s
+    /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
+    start_sliding_rate: Cell<f64>,
 }
 
 /// Why the integration gave up (the tire is left unchanged).
@@ -279,6 +282,7 @@ impl<'a> SlidingStep<'a> {
             slots,
             slot_count,
             stiff: Cell::new(false),
+            start_sliding_rate: Cell::new(0.0),
         }
     }
 
@@ -305,25 +309,6 @@ impl<'a> SlidingStep<'a> {
         input
     }
 
-    /// `A x + B u` over the model's own states (the rest stay zero): the system's
-    /// `state_rates` without the unused rows and columns of the fixed-size storage.
-    #[inline]
-    fn model_rates(&self, x: &StateVector, u: &DrivingVector) -> StateVector {
-        let n = self.system.states.min(MAX_STATES);
-        // Column-major storage: entry (i, j) at i + MAX_STATES j.
-        let (a, b) = (self.system.a.as_slice(), self.system.b.as_slice());
-        let mut rates = StateVector::zeros();
-        for i in 0..n {
-            let mut states = a[i] * x[0];
-            for j in 1..n {
-                states += a[i + MAX_STATES * j] * x[j];
-            }
-            let inputs = b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
-            rates[i] = states + inputs;
-        }
-        rates
-    }
-
     fn inputs_at(&self, t: f64) -> DrivingVector {
         self.inputs + self.input_rates * t
     }
@@ -333,7 +318,7 @@ impl<'a> SlidingStep<'a> {
         let layout = &self.layout;
         let x = layout.model_states(z);
         let u = self.inputs_at(t);
-        let x_rates = self.model_rates(&x, &u);
+        let x_rates = self.system.state_rates(&x, &u);
         let mut rates = [0.0; SIZE];
         for j in 0..layout.free_count {
             rates[j] = x_rates[layout.free[j]];
@@ -374,8 +359,8 @@ impl<'a> SlidingStep<'a> {
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
     /// of the step. Explicitly first; a step the explicit method cannot finish (a stiff
     /// slide) is taken again from its start by the linearly implicit method, and one whose
-    /// sliding groups turn their forces within a fraction of the step
-    /// ([`SlidingStep::turn_rate`]) is taken by it from the start.
+    /// sliding groups move their forces within a fraction of the step (as
+    /// [`SlidingStep::prepare`] found them) is taken by it from the start.
     pub fn integrate(
         &self,
         x: &mut StateVector,
@@ -385,45 +370,12 @@ impl<'a> SlidingStep<'a> {
         self.stiff.set(false);
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
-        let crawls = h * self.turn_rate(x, sliders) > STIFF_STEP;
+        let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
             return Ok(());
         }
         self.stiff.set(true);
         self.integrate_by_current_method(x, sliders, h)
-    }
-
-    /// The fastest rate at which a sliding group moves its force at these states, 1/s: a
-    /// spring group's force rate across the ellipse when sticking, `sum |K_k g_k| / L_k`;
-    /// a damped group's relaxation `C / D`. The explicit method's substeps stay below a
-    /// few of its time constants.
-    fn turn_rate(&self, x: &StateVector, sliders: &SliderState) -> f64 {
-        let z = self.layout.pack(x, sliders);
-        let states = self.layout.model_states(&z);
-        let rates = self.model_rates(&states, &self.inputs);
-        let mut fastest = 0.0_f64;
-        for slot in self.slots() {
-            if !sliders.sliding[slot.group][slot.branch] {
-                continue;
-            }
-            if slot.input.damped() {
-                // A sliding damper relaxes its element at C / D.
-                let rate = slot
-                    .input
-                    .members()
-                    .map(|k| slot.input.stiffness[k] / slot.input.damping[k])
-                    .fold(0.0, f64::max);
-                fastest = fastest.max(rate);
-                continue;
-            }
-            let input = self.slot_input(slot, &states, &rates, &z);
-            let rate: f64 = input
-                .members()
-                .map(|k| (input.stiffness[k] * input.sticking_rate[k] / input.limit[k]).abs())
-                .sum();
-            fastest = fastest.max(rate);
-        }
-        fastest
     }
 
     /// [`SlidingStep::integrate`] by the method [`SlidingStep::stiff`] says.
@@ -597,6 +549,7 @@ impl<'a> SlidingStep<'a> {
         }
         let states = layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
+        let mut fastest = 0.0_f64;
         for slot in self.slots() {
             let input = self.slot_input(slot, &states, &rates, &z);
             let sliding = if input.damped() {
@@ -613,7 +566,11 @@ impl<'a> SlidingStep<'a> {
                 utilisation >= 1.0 - EVENT_TOLERANCE && input.outward_cosine(&force) > 0.0
             };
             sliders.sliding[slot.group][slot.branch] = sliding;
+            if sliding {
+                fastest = fastest.max(input.sliding_rate());
+            }
         }
+        self.start_sliding_rate.set(fastest);
         *x = layout.unpack(&z, sliders);
         inside
     }
