@@ -4,7 +4,7 @@
 //! ([`Friction::prepare`]).
 
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
-use crate::physics::lu::Factors;
+use crate::physics::lu;
 use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
 use crate::physics::stepper::{Blocks, StepKey, StepMap};
@@ -412,13 +412,15 @@ impl Friction {
     #[inline(never)]
     fn energy_bounds<const N: usize, S: ForceBounds>(&self, step: &LinearStep, weights: &StateVector) -> S {
         let (a, b, u) = (&step.system.a, &step.system.b, step.inputs);
-        let system: [[f64; N]; N] = std::array::from_fn(|i| std::array::from_fn(|j| a[(i, j)]));
+        // States past the model's count (zero) solve to zero; the elimination over all
+        // `N` rows, a constant, is unrolled.
+        let n = step.system.states;
+        let system: [[f64; N]; N] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| if i < n { a[(i, j)] } else { f64::from(i == j) })
+        });
         let forcing: [f64; N] =
             std::array::from_fn(|i| -(b[(i, 0)] * u[0] + b[(i, 1)] * u[1] + b[(i, 2)] * u[2]));
-        // Over the model's own states; those past its count (zero) stay zero.
-        let equilibrium = Factors::new(system, step.system.states.min(N))
-            .map(|factors| factors.solve(forcing))
-            .filter(|x_e| x_e.iter().all(|v| v.is_finite()));
+        let equilibrium = lu::solve(system, forcing, N);
         let twice_energy = equilibrium.map_or(f64::INFINITY, |x_e| {
             (0..N)
                 .map(|j| weights[j] * (step.start[j] - x_e[j]).powi(2))
