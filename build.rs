@@ -20,6 +20,18 @@ struct Variable {
     min: Option<String>,
     max: Option<String>,
     unit: Option<String>,
+    /// The index (1-based) of the state this variable is the derivative of.
+    derivative: Option<usize>,
+}
+
+/// What the model description says beyond its variables.
+struct Description {
+    guid: String,
+    model_identifier: String,
+    event_indicators: usize,
+    /// ModelStructure/Derivatives: the index (1-based) of each state derivative, in the
+    /// order of the continuous state vector.
+    derivatives: Vec<usize>,
 }
 
 fn attribute(element: &BytesStart, key: &str) -> Option<String> {
@@ -40,11 +52,20 @@ fn required(element: &BytesStart, key: &str) -> String {
     })
 }
 
-/// `steerRate` -> `SteerRate`: the Rust enum variant of a variable.
+/// `steerRate` -> `SteerRate`, `der(tireState1)` -> `DerTireState1`: the Rust enum
+/// variant of a variable (each run of letters and digits, capitalised).
 fn variant_name(name: &str) -> String {
-    let mut chars = name.chars();
-    let first = chars.next().expect("empty variable name");
-    first.to_uppercase().chain(chars).collect()
+    let variant: String = name
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .filter(|part| !part.is_empty())
+        .flat_map(|part| {
+            let mut chars = part.chars();
+            let first = chars.next().expect("not empty");
+            first.to_uppercase().chain(chars)
+        })
+        .collect();
+    assert!(!variant.is_empty(), "variable name '{name}' has no letters");
+    variant
 }
 
 fn float_literal(text: &Option<String>) -> String {
@@ -59,17 +80,36 @@ fn float_literal(text: &Option<String>) -> String {
     }
 }
 
-fn parse(xml: &str) -> (String, String, Vec<Variable>) {
+fn parse(xml: &str) -> (Description, Vec<Variable>) {
     let mut reader = Reader::from_str(xml);
     reader.config_mut().trim_text(true);
-    let (mut guid, mut model_identifier) = (None, None);
+    let (mut guid, mut model_identifier, mut event_indicators) = (None, None, 0);
+    let mut derivatives = Vec::new();
+    let mut in_derivatives = false;
     let mut variables: Vec<Variable> = Vec::new();
     let mut open: Option<Variable> = None;
     loop {
         match reader.read_event() {
             Ok(Event::Start(e)) | Ok(Event::Empty(e)) => match e.name().as_ref() {
-                "fmiModelDescription" => guid = Some(required(&e, "guid")),
-                "CoSimulation" => model_identifier = Some(required(&e, "modelIdentifier")),
+                "fmiModelDescription" => {
+                    guid = Some(required(&e, "guid"));
+                    event_indicators = attribute(&e, "numberOfEventIndicators").map_or(0, |n| {
+                        n.parse().expect("numberOfEventIndicators must be an integer")
+                    });
+                }
+                tag @ ("CoSimulation" | "ModelExchange") => {
+                    let identifier = required(&e, "modelIdentifier");
+                    if let Some(other) = &model_identifier {
+                        assert_eq!(other, &identifier, "<{tag}> has another modelIdentifier");
+                    }
+                    model_identifier = Some(identifier);
+                }
+                "Derivatives" => in_derivatives = true,
+                "Unknown" if in_derivatives => derivatives.push(
+                    required(&e, "index")
+                        .parse()
+                        .expect("an Unknown's index must be an integer"),
+                ),
                 "ScalarVariable" => {
                     open = Some(Variable {
                         name: required(&e, "name"),
@@ -83,6 +123,7 @@ fn parse(xml: &str) -> (String, String, Vec<Variable>) {
                         min: None,
                         max: None,
                         unit: None,
+                        derivative: None,
                     })
                 }
                 tag @ ("Real" | "Integer" | "Enumeration" | "Boolean" | "String") => {
@@ -92,10 +133,13 @@ fn parse(xml: &str) -> (String, String, Vec<Variable>) {
                         v.min = attribute(&e, "min");
                         v.max = attribute(&e, "max");
                         v.unit = attribute(&e, "unit");
+                        v.derivative = attribute(&e, "derivative")
+                            .map(|i| i.parse().expect("derivative must be a variable index"));
                     }
                 }
                 _ => {}
             },
+            Ok(Event::End(e)) if e.name().as_ref() == "Derivatives" => in_derivatives = false,
             Ok(Event::End(e)) if e.name().as_ref() == "ScalarVariable" => {
                 variables.push(open.take().expect("unbalanced <ScalarVariable>"));
             }
@@ -108,8 +152,12 @@ fn parse(xml: &str) -> (String, String, Vec<Variable>) {
         }
     }
     (
-        guid.expect("no guid in the model description"),
-        model_identifier.expect("no <CoSimulation modelIdentifier>"),
+        Description {
+            guid: guid.expect("no guid in the model description"),
+            model_identifier: model_identifier.expect("no <CoSimulation modelIdentifier>"),
+            event_indicators,
+            derivatives,
+        },
         variables,
     )
 }
@@ -242,14 +290,88 @@ fn generate(guid: &str, model_identifier: &str, variables: &[Variable]) -> Strin
     out
 }
 
+/// The continuous states, in the order of ModelStructure/Derivatives: (state, derivative)
+/// as positions in `variables`. Checks that each listed unknown is a derivative and that
+/// every derivative is listed.
+fn continuous_states(description: &Description, variables: &[Variable]) -> Vec<(usize, usize)> {
+    let states: Vec<(usize, usize)> = description
+        .derivatives
+        .iter()
+        .map(|&index| {
+            let derivative = index - 1;
+            let v = variables
+                .get(derivative)
+                .unwrap_or_else(|| panic!("ModelStructure/Derivatives: no variable {index}"));
+            let state = v.derivative.unwrap_or_else(|| {
+                panic!(
+                    "ModelStructure/Derivatives lists {}, which has no derivative=",
+                    v.name
+                )
+            });
+            assert!(
+                state >= 1 && state <= variables.len(),
+                "{}: derivative={state} is not a variable",
+                v.name
+            );
+            (state - 1, derivative)
+        })
+        .collect();
+    let declared = variables.iter().filter(|v| v.derivative.is_some()).count();
+    assert_eq!(
+        declared,
+        states.len(),
+        "every variable with derivative= must be listed in ModelStructure/Derivatives"
+    );
+    states
+}
+
+fn generate_continuous_states(
+    out: &mut String,
+    description: &Description,
+    variables: &[Variable],
+    states: &[(usize, usize)],
+) {
+    let w = out;
+    writeln!(w, "/// numberOfEventIndicators.").unwrap();
+    writeln!(
+        w,
+        "pub const NUMBER_OF_EVENT_INDICATORS: usize = {};",
+        description.event_indicators
+    )
+    .unwrap();
+    let list = |pick: fn(&(usize, usize)) -> usize| {
+        states
+            .iter()
+            .map(|s| format!("Variable::{}", variant_name(&variables[pick(s)].name)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    writeln!(
+        w,
+        "/// The continuous states (Model Exchange), in the order of the state vector.\npub const CONTINUOUS_STATE_VARIABLES: [Variable; {}] = [{}];",
+        states.len(),
+        list(|s| s.0)
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "/// The derivative of each continuous state, in the same order.\npub const DERIVATIVE_VARIABLES: [Variable; {}] = [{}];",
+        states.len(),
+        list(|s| s.1)
+    )
+    .unwrap();
+}
+
 fn main() {
     println!("cargo:rerun-if-changed={MODEL_DESCRIPTION}");
     println!("cargo:rerun-if-changed=build.rs");
     let xml = std::fs::read_to_string(MODEL_DESCRIPTION)
         .unwrap_or_else(|e| panic!("cannot read {MODEL_DESCRIPTION}: {e}"));
-    let (guid, model_identifier, variables) = parse(&xml);
+    let (description, variables) = parse(&xml);
     check(&variables);
-    let code = generate(&guid, &model_identifier, &variables);
+    let states = continuous_states(&description, &variables);
+    let mut code = generate(&description.guid, &description.model_identifier, &variables);
+    generate_continuous_states(&mut code, &description, &variables, &states);
     let out_dir = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
     std::fs::write(Path::new(&out_dir).join("variables.rs"), code).expect("cannot write variables.rs");
 }

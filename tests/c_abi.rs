@@ -176,18 +176,12 @@ fn instantiate_refuses_bad_requests_with_a_logged_reason() {
     let log = messages("wrong_guid").join("\n");
     assert!(log.contains("{not-the-guid}") && log.contains(GUID), "{log}");
 
-    let c = instantiate_raw(
-        &fmu,
-        "model_exchange",
-        fmi2Type_fmi2ModelExchange,
-        GUID,
-        &callbacks,
-    );
+    let c = instantiate_raw(&fmu, "unknown_type", 7, GUID, &callbacks);
     assert!(c.is_null());
     assert!(
-        messages("model_exchange")
+        messages("unknown_type")
             .join("\n")
-            .contains("only Co-Simulation")
+            .contains("fmuType 7 is neither fmi2ModelExchange (0) nor fmi2CoSimulation (1)")
     );
 
     let c = instantiate_raw(&fmu, "", fmi2Type_fmi2CoSimulation, GUID, &callbacks);

@@ -95,10 +95,10 @@ fn maybe_null_mut<T>(rng: &mut Rng, v: &mut [T]) -> *mut T {
 fn run_sequence(fmu: &Fmi2Binding, rng: &mut Rng, callbacks: &fmi2CallbackFunctions) -> Vec<fmi2Status> {
     let name = CString::new(if rng.chance(20) { "" } else { "fuzz" }).unwrap();
     let guid = CString::new(if rng.chance(20) { "{bad}" } else { GUID }).unwrap();
-    let kind = if rng.chance(20) {
-        fmi2Type_fmi2ModelExchange
-    } else {
-        fmi2Type_fmi2CoSimulation
+    let kind = match rng.below(20) {
+        0 => 2 + rng.below(5) as fmi2Type,
+        k if k < 7 => fmi2Type_fmi2ModelExchange,
+        _ => fmi2Type_fmi2CoSimulation,
     };
     let callbacks_ptr: *const fmi2CallbackFunctions = if rng.chance(30) { null() } else { callbacks };
     let c = unsafe {
@@ -131,6 +131,11 @@ fn run_sequence(fmu: &Fmi2Binding, rng: &mut Rng, callbacks: &fmi2CallbackFuncti
             }
             fmu.fmi2EnterInitializationMode(c);
             fmu.fmi2ExitInitializationMode(c);
+            if kind == fmi2Type_fmi2ModelExchange && rng.chance(2) {
+                let mut info = std::mem::zeroed::<fmi2EventInfo>();
+                fmu.fmi2NewDiscreteStates(c, &mut info);
+                fmu.fmi2EnterContinuousTimeMode(c);
+            }
         }
     }
     let mut saved: Vec<fmi2FMUstate> = Vec::new();
@@ -139,7 +144,7 @@ fn run_sequence(fmu: &Fmi2Binding, rng: &mut Rng, callbacks: &fmi2CallbackFuncti
         let mut a = Arrays::new(rng);
         let n = a.refs.len();
         let status = unsafe {
-            match rng.below(22) {
+            match rng.below(26) {
                 0 => fmu.fmi2SetupExperiment(c, 0, 0.0, rng.real(), rng.below(2) as i32, rng.real()),
                 1 => fmu.fmi2EnterInitializationMode(c),
                 2 => fmu.fmi2ExitInitializationMode(c),
@@ -244,6 +249,7 @@ fn run_sequence(fmu: &Fmi2Binding, rng: &mut Rng, callbacks: &fmi2CallbackFuncti
                     }
                     s
                 }
+                22..=25 => model_exchange_call(fmu, c, rng),
                 18 => fmu.fmi2Reset(c),
                 19 => fmu.fmi2Terminate(c),
                 20 => {
@@ -278,6 +284,39 @@ fn run_sequence(fmu: &Fmi2Binding, rng: &mut Rng, callbacks: &fmi2CallbackFuncti
     }
     unsafe { fmu.fmi2FreeInstance(c) };
     statuses
+}
+
+/// One Model Exchange call with random arguments: vectors of the right length mostly,
+/// sometimes of another length or NULL.
+unsafe fn model_exchange_call(fmu: &Fmi2Binding, c: fmi2Component, rng: &mut Rng) -> fmi2Status {
+    let n = if rng.chance(4) { rng.below(30) as usize } else { 18 };
+    let mut values: Vec<f64> = (0..n.max(9)).map(|_| rng.real() * 1e-3).collect();
+    let pointer = maybe_null_mut(rng, &mut values);
+    unsafe {
+        match rng.below(10) {
+            0 => fmu.fmi2SetTime(c, rng.real()),
+            1 => fmu.fmi2SetContinuousStates(c, pointer, n),
+            2 => fmu.fmi2GetContinuousStates(c, pointer, n),
+            3 => fmu.fmi2GetDerivatives(c, pointer, n),
+            4 => fmu.fmi2GetEventIndicators(c, pointer, if rng.chance(4) { n } else { 9 }),
+            5 => fmu.fmi2GetNominalsOfContinuousStates(c, pointer, n),
+            6 => fmu.fmi2EnterEventMode(c),
+            7 => {
+                let mut info = std::mem::zeroed::<fmi2EventInfo>();
+                let target = if rng.chance(10) {
+                    null_mut()
+                } else {
+                    &mut info as *mut _
+                };
+                fmu.fmi2NewDiscreteStates(c, target)
+            }
+            8 => fmu.fmi2EnterContinuousTimeMode(c),
+            _ => {
+                let (mut enter, mut terminate) = (0, 0);
+                fmu.fmi2CompletedIntegratorStep(c, 1, &mut enter, &mut terminate)
+            }
+        }
+    }
 }
 
 #[test]

@@ -6,7 +6,10 @@ use std::collections::BTreeMap;
 use quick_xml::Reader;
 use quick_xml::events::Event;
 use tirelag::fmi::instance::start_parameters;
-use tirelag::fmi::variables::{Causality, GUID, Role, VARIABLES, ValueType, Variable};
+use tirelag::fmi::variables::{
+    CONTINUOUS_STATE_VARIABLES, Causality, DERIVATIVE_VARIABLES, GUID, Role, VARIABLES, ValueType, Variable,
+};
+use tirelag::physics::tire::hybrid::CONTINUOUS_STATES;
 use tirelag::physics::{Input, Output, Parameter, Parameters};
 
 const XML: &str = include_str!("../modelDescription/modelDescription.xml");
@@ -144,6 +147,8 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
     wanted.extend(Parameter::ALL.map(Role::Parameter));
     wanted.push(Role::ModelChoice);
     wanted.push(Role::FrictionChoice);
+    wanted.extend((0..CONTINUOUS_STATES).map(Role::ContinuousState));
+    wanted.extend((0..CONTINUOUS_STATES).map(Role::Derivative));
     assert_eq!(roles.len(), wanted.len());
     for role in wanted {
         assert_eq!(roles.iter().filter(|r| **r == role).count(), 1, "{role:?}");
@@ -156,6 +161,7 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
             Role::Parameter(_) | Role::ModelChoice | Role::FrictionChoice => {
                 info.causality == Causality::Parameter
             }
+            Role::ContinuousState(_) | Role::Derivative(_) => info.causality == Causality::Local,
         };
         assert!(causality_fits, "{}", info.name);
     }
@@ -191,7 +197,10 @@ fn model_structure_lists_exactly_the_outputs_with_their_feedthrough() {
             section = name;
         } else if name == "Unknown" {
             let index: usize = attributes["index"].parse().unwrap();
-            let dependencies: Vec<&str> = attributes["dependencies"]
+            // No dependencies attribute: depends on every known (the derivatives).
+            let dependencies: Vec<&str> = attributes
+                .get("dependencies")
+                .map_or("", |d| d.as_str())
                 .split_whitespace()
                 .map(|d| indices[&d.parse::<usize>().unwrap()])
                 .collect();
@@ -221,7 +230,24 @@ fn model_structure_lists_exactly_the_outputs_with_their_feedthrough() {
         vec!["deflY"],
         vec!["deflPsi"],
     ];
-    assert_eq!(unknowns["Outputs"], expected);
-    assert_eq!(unknowns["InitialUnknowns"], expected);
-    assert!(!unknowns.contains_key("Derivatives"));
+    // Model Exchange: every output also depends on the continuous states.
+    let states: Vec<&str> = CONTINUOUS_STATE_VARIABLES.iter().map(|v| v.name()).collect();
+    let with_states: Vec<Vec<&str>> = expected
+        .iter()
+        .map(|row| row.iter().copied().chain(states.iter().copied()).collect())
+        .collect();
+    assert_eq!(unknowns["Outputs"], with_states);
+    // The derivatives, in the order of the state vector, each on every known.
+    let derivatives: Vec<Vec<&str>> = DERIVATIVE_VARIABLES.iter().map(|v| vec![v.name()]).collect();
+    assert_eq!(unknowns["Derivatives"], derivatives);
+    let initial: Vec<Vec<&str>> = expected.into_iter().chain(derivatives).collect();
+    assert_eq!(unknowns["InitialUnknowns"], initial);
+}
+
+#[test]
+fn each_state_derivative_names_its_state() {
+    for (state, derivative) in CONTINUOUS_STATE_VARIABLES.iter().zip(DERIVATIVE_VARIABLES) {
+        assert_eq!(derivative.name(), format!("der({})", state.name()));
+        assert_eq!(state.info().start, Some(0.0), "{}", state.name());
+    }
 }

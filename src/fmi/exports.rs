@@ -12,7 +12,7 @@ use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::ptr::null_mut;
 
-use super::instance::Instance;
+use super::instance::{Instance, Interface};
 use super::logger::{self, Category, Logger};
 use super::snapshot::Snapshot;
 use super::state_machine::Call;
@@ -227,11 +227,16 @@ unsafe fn instantiate(
     let Some(name) = name else {
         return report("instanceName must be a non-empty string".into());
     };
-    if fmu_type != fmi2Type_fmi2CoSimulation {
-        return report(format!(
-            "fmuType {fmu_type}: this FMU supports only Co-Simulation (fmi2CoSimulation = {fmi2Type_fmi2CoSimulation})"
-        ));
-    }
+    let interface = match fmu_type {
+        fmi2Type_fmi2CoSimulation => Interface::CoSimulation,
+        fmi2Type_fmi2ModelExchange => Interface::ModelExchange,
+        _ => {
+            return report(format!(
+                "fmuType {fmu_type} is neither fmi2ModelExchange ({fmi2Type_fmi2ModelExchange}) nor \
+                 fmi2CoSimulation ({fmi2Type_fmi2CoSimulation})"
+            ));
+        }
+    };
     match unsafe { text(guid, "fmuGUID") } {
         Ok(given) if given == GUID => {}
         Ok(given) => return report(format!("fmuGUID {given} does not match this FMU's {GUID}")),
@@ -243,7 +248,7 @@ unsafe fn instantiate(
         CString::new(name).unwrap_or_default(),
         logging_on,
     );
-    match Instance::new(logger) {
+    match Instance::new(logger, interface) {
         Ok(instance) => Some(Box::new(instance)),
         Err(e) => report(e),
     }
@@ -677,6 +682,117 @@ pub extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
     with_instance(c, "fmi2CancelStep", |instance| instance.require(Call::CancelStep))
 }
 
+// ---------------------------------------------------------------- Model Exchange
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetTime(c: fmi2Component, time: fmi2Real) -> fmi2Status {
+    with_instance_logged(
+        c,
+        "fmi2SetTime",
+        move || format!("time = {time}"),
+        |instance| instance.set_time(time),
+    )
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2SetContinuousStates(c: fmi2Component, x: *const fmi2Real, nx: usize) -> fmi2Status {
+    let arguments = move || unsafe { format!("x = {}", listed(x, nx)) };
+    with_instance_logged(c, "fmi2SetContinuousStates", arguments, |instance| unsafe {
+        instance.set_continuous_states(array(x, nx, "x")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status {
+    with_instance(c, "fmi2EnterEventMode", Instance::enter_event_mode)
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, fmi2eventInfo: *mut fmi2EventInfo) -> fmi2Status {
+    with_instance(c, "fmi2NewDiscreteStates", |instance| {
+        let info = unsafe { out(fmi2eventInfo, "fmi2eventInfo")? };
+        let update = instance.new_discrete_states()?;
+        *info = fmi2EventInfo {
+            newDiscreteStatesNeeded: 0,
+            terminateSimulation: 0,
+            nominalsOfContinuousStatesChanged: 0,
+            valuesOfContinuousStatesChanged: update.continuous_states_changed.into(),
+            nextEventTimeDefined: 0,
+            nextEventTime: 0.0,
+        };
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status {
+    with_instance(
+        c,
+        "fmi2EnterContinuousTimeMode",
+        Instance::enter_continuous_time_mode,
+    )
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2CompletedIntegratorStep(
+    c: fmi2Component,
+    _noSetFMUStatePriorToCurrentPoint: fmi2Boolean,
+    enterEventMode: *mut fmi2Boolean,
+    terminateSimulation: *mut fmi2Boolean,
+) -> fmi2Status {
+    with_instance(c, "fmi2CompletedIntegratorStep", |instance| {
+        let enter = unsafe { out(enterEventMode, "enterEventMode")? };
+        let terminate = unsafe { out(terminateSimulation, "terminateSimulation")? };
+        instance.completed_integrator_step()?;
+        *enter = 0;
+        *terminate = 0;
+        Ok(())
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetDerivatives(c: fmi2Component, derivatives: *mut fmi2Real, nx: usize) -> fmi2Status {
+    let arguments = move || unsafe { format!("derivatives -> {}", listed(derivatives, nx)) };
+    with_instance_logged(c, "fmi2GetDerivatives", arguments, |instance| unsafe {
+        instance.get_derivatives(array_mut(derivatives, nx, "derivatives")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetEventIndicators(
+    c: fmi2Component,
+    eventIndicators: *mut fmi2Real,
+    ni: usize,
+) -> fmi2Status {
+    let arguments = move || unsafe { format!("eventIndicators -> {}", listed(eventIndicators, ni)) };
+    with_instance_logged(c, "fmi2GetEventIndicators", arguments, |instance| unsafe {
+        instance.get_event_indicators(array_mut(eventIndicators, ni, "eventIndicators")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetContinuousStates(c: fmi2Component, x: *mut fmi2Real, nx: usize) -> fmi2Status {
+    let arguments = move || unsafe { format!("x -> {}", listed(x, nx)) };
+    with_instance_logged(c, "fmi2GetContinuousStates", arguments, |instance| unsafe {
+        instance.get_continuous_states(array_mut(x, nx, "x")?)
+    })
+}
+
+#[unsafe(no_mangle)]
+pub extern "C" fn fmi2GetNominalsOfContinuousStates(
+    c: fmi2Component,
+    x_nominal: *mut fmi2Real,
+    nx: usize,
+) -> fmi2Status {
+    let arguments = move || unsafe { format!("x_nominal -> {}", listed(x_nominal, nx)) };
+    with_instance_logged(
+        c,
+        "fmi2GetNominalsOfContinuousStates",
+        arguments,
+        |instance| unsafe { instance.get_nominals(array_mut(x_nominal, nx, "x_nominal")?) },
+    )
+}
+
 /// The status functions. fmi2DoStep never returns fmi2Pending, so the last step is
 /// always complete, no status is pending, and the FMU never asks to terminate.
 fn status_value<T>(
@@ -780,3 +896,13 @@ const _: fmi2GetRealStatusTYPE = Some(fmi2GetRealStatus);
 const _: fmi2GetIntegerStatusTYPE = Some(fmi2GetIntegerStatus);
 const _: fmi2GetBooleanStatusTYPE = Some(fmi2GetBooleanStatus);
 const _: fmi2GetStringStatusTYPE = Some(fmi2GetStringStatus);
+const _: fmi2SetTimeTYPE = Some(fmi2SetTime);
+const _: fmi2SetContinuousStatesTYPE = Some(fmi2SetContinuousStates);
+const _: fmi2EnterEventModeTYPE = Some(fmi2EnterEventMode);
+const _: fmi2NewDiscreteStatesTYPE = Some(fmi2NewDiscreteStates);
+const _: fmi2EnterContinuousTimeModeTYPE = Some(fmi2EnterContinuousTimeMode);
+const _: fmi2CompletedIntegratorStepTYPE = Some(fmi2CompletedIntegratorStep);
+const _: fmi2GetDerivativesTYPE = Some(fmi2GetDerivatives);
+const _: fmi2GetEventIndicatorsTYPE = Some(fmi2GetEventIndicators);
+const _: fmi2GetContinuousStatesTYPE = Some(fmi2GetContinuousStates);
+const _: fmi2GetNominalsOfContinuousStatesTYPE = Some(fmi2GetNominalsOfContinuousStates);

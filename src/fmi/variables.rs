@@ -57,6 +57,10 @@ pub enum Role {
     ModelChoice,
     /// The `friction` selector (declared type TireFriction).
     FrictionChoice,
+    /// Entry k of the continuous state vector (Model Exchange).
+    ContinuousState(usize),
+    /// The derivative of entry k of the continuous state vector.
+    Derivative(usize),
 }
 
 impl Variable {
@@ -118,7 +122,26 @@ impl Variable {
             V::MuY => Role::Parameter(Parameter::LateralFriction),
             V::MuLoadSensitivity => Role::Parameter(Parameter::FrictionLoadSensitivity),
             V::BoreRadius => Role::Parameter(Parameter::BoreRadius),
+            // The continuous states and their derivatives, by their place in the state
+            // vector (the model description's ModelStructure/Derivatives).
+            _ => self.continuous_role(),
         }
+    }
+
+    /// [`Role::ContinuousState`] or [`Role::Derivative`]; any other variable without a
+    /// role stops the build (the roles are evaluated at compile time).
+    const fn continuous_role(self) -> Role {
+        let mut k = 0;
+        while k < CONTINUOUS_STATE_VARIABLES.len() {
+            if CONTINUOUS_STATE_VARIABLES[k] as usize == self as usize {
+                return Role::ContinuousState(k);
+            }
+            if DERIVATIVE_VARIABLES[k] as usize == self as usize {
+                return Role::Derivative(k);
+            }
+            k += 1;
+        }
+        panic!("a variable of the model description has no role")
     }
 
     /// The variable that plays a role (the inverse of [`Variable::role`]).
@@ -141,6 +164,10 @@ const ROLES: [Role; VARIABLES.len()] = {
     }
     roles
 };
+
+// The model description's state vector and event indicators are the hybrid tire's.
+const _: () = assert!(CONTINUOUS_STATE_VARIABLES.len() == crate::physics::tire::hybrid::CONTINUOUS_STATES);
+const _: () = assert!(NUMBER_OF_EVENT_INDICATORS == crate::physics::tire::hybrid::GUARDS);
 
 /// No signal at this value reference, in the tables below.
 pub const NO_SIGNAL: u8 = u8::MAX;

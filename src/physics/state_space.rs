@@ -65,19 +65,27 @@ impl StateSpace {
     /// times per step).
     #[inline]
     pub fn state_rates(&self, x: &StateVector, u: &DrivingVector) -> StateVector {
+        let mut rates = StateVector::zeros();
+        self.write_state_rates(x, u, rates.as_mut_slice());
+        rates
+    }
+
+    /// [`StateSpace::state_rates`] written into `rates` (at least the model's states
+    /// long; entries past them are left alone), where they are to be kept: a copy read
+    /// right after they are written one by one would wait for the writes to land.
+    #[inline]
+    pub fn write_state_rates(&self, x: &StateVector, u: &DrivingVector, rates: &mut [f64]) {
         let n = self.states.min(MAX_STATES);
         // Column-major storage: entry (i, j) at i + MAX_STATES j.
         let (a, b) = (self.a.as_slice(), self.b.as_slice());
-        let mut rates = StateVector::zeros();
-        for i in 0..n {
+        for (i, rate) in rates.iter_mut().enumerate().take(n) {
             let mut states = a[i] * x[0];
             for j in 1..n {
                 states += a[i + MAX_STATES * j] * x[j];
             }
             let inputs = b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
-            rates[i] = states + inputs;
+            *rate = states + inputs;
         }
-        rates
     }
 
     /// `dy/dt = C dx/dt + D du/dt`.

@@ -55,7 +55,6 @@ def test_packed_description_is_the_single_source(fmu_path, model_description):
 def test_cosimulation_capabilities(model_description):
     md = model_description
     assert md.fmiVersion == "2.0"
-    assert md.modelExchange is None
     cs = md.coSimulation
     assert cs is not None and cs.modelIdentifier == "TireLag"
     assert cs.canHandleVariableCommunicationStepSize
@@ -65,6 +64,18 @@ def test_cosimulation_capabilities(model_description):
     assert cs.maxOutputDerivativeOrder == 1
     assert cs.providesDirectionalDerivative
     assert md.guid
+
+
+def test_model_exchange_capabilities(model_description):
+    """SPEC 7b: Model Exchange beside Co-Simulation, same modelIdentifier, with FMU state,
+    serialization and directional derivatives; 18 states and 9 event indicators."""
+    md = model_description
+    me = md.modelExchange
+    assert me is not None and me.modelIdentifier == md.coSimulation.modelIdentifier
+    assert me.canGetAndSetFMUstate and me.canSerializeFMUstate
+    assert me.providesDirectionalDerivative
+    assert md.numberOfEventIndicators == 9
+    assert len(md.derivatives) == 18
 
 
 def test_inputs(variables):
@@ -151,7 +162,12 @@ def test_no_variable_is_named_after_a_modelica_keyword(variables):
 
 
 def test_no_other_variables(variables):
+    # Model Exchange: the model's states in six slots, the branch offsets by direction
+    # and branch, and their derivatives.
+    states = {f"tireState{k}" for k in range(1, 7)}
+    states |= {f"sliderOffset{d}{i}" for d in ("X", "Y", "Psi") for i in range(1, 5)}
     expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"tireModel", "friction"}
+    expected |= states | {f"der({s})" for s in states}
     assert set(variables) == expected
     vrs = [v.valueReference for v in variables.values()]
     assert len(vrs) == len(set(vrs)), "value references must be unique"
@@ -201,8 +217,12 @@ def test_model_structure_outputs(model_description):
     names = [u.variable.name for u in outs]
     assert len(names) == 9 and sorted(names) == sorted(ref.OUTPUTS), names
     truth = _true_dependencies()
+    # Model Exchange: every output also depends on the continuous states.
+    states = {v.name for v in model_description.modelVariables if v.name.startswith(("tireState", "sliderOffset"))}
+    assert len(states) == 18
     for u in outs:
-        declared = {d.name for d in u.dependencies}
+        declared = {d.name for d in u.dependencies} - states
+        assert {d.name for d in u.dependencies} >= states, u.variable.name
         assert declared == truth[u.variable.name], (
             f"{u.variable.name}: declared direct dependencies {sorted(declared)}, "
             f"SPEC equations give {sorted(truth[u.variable.name])}")

@@ -133,13 +133,18 @@ pub struct Slave<'a> {
 
 impl<'a> Slave<'a> {
     pub fn instantiate(fmu: &'a Fmi2Binding, name: &str) -> Self {
+        Self::instantiate_as(fmu, name, fmi2Type_fmi2CoSimulation)
+    }
+
+    /// An instance for Co-Simulation or Model Exchange (`kind`).
+    pub fn instantiate_as(fmu: &'a Fmi2Binding, name: &str, kind: fmi2Type) -> Self {
         let callbacks = Box::new(callbacks());
         let c_name = CString::new(name).unwrap();
         let guid = CString::new(GUID).unwrap();
         let c = unsafe {
             fmu.fmi2Instantiate(
                 c_name.as_ptr(),
-                fmi2Type_fmi2CoSimulation,
+                kind,
                 guid.as_ptr(),
                 c"".as_ptr(),
                 &*callbacks,
@@ -169,7 +174,19 @@ impl<'a> Slave<'a> {
         integers: &[(u32, i32)],
         reals: &[(u32, f64)],
     ) -> Self {
-        let s = Self::instantiate(fmu, name);
+        Self::configured_as(fmu, name, fmi2Type_fmi2CoSimulation, integers, reals)
+    }
+
+    /// [`Slave::configured`] for Co-Simulation or Model Exchange (`kind`; Model Exchange
+    /// is left in event mode).
+    pub fn configured_as(
+        fmu: &'a Fmi2Binding,
+        name: &str,
+        kind: fmi2Type,
+        integers: &[(u32, i32)],
+        reals: &[(u32, f64)],
+    ) -> Self {
+        let s = Self::instantiate_as(fmu, name, kind);
         assert_eq!(unsafe { fmu.fmi2SetupExperiment(s.c, 0, 0.0, 0.0, 0, 0.0) }, OK);
         for &(reference, value) in integers {
             assert_eq!(s.set_integer(&[reference], &[value]), OK);

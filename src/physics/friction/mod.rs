@@ -45,6 +45,8 @@ pub mod sliding;
 mod sticking;
 mod vocabulary;
 
+/// Event values by group and branch.
+pub use sliding::Events;
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
     ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, Limits, MAX_BRANCHES,
@@ -66,6 +68,9 @@ pub struct Friction {
     /// The smallest `phi_i / w_i`: the share of an element's limit below which every branch
     /// sticks.
     first_breakpoint: f64,
+    /// `1 / (phi_i / w_i)^2` by branch: a sticking branch's utilisation per unit of its
+    /// element's.
+    inverse_squared_breakpoints: [f64; MAX_BRANCHES],
     /// Which directions this model has an element in.
     present_directions: [bool; Direction::COUNT],
     /// Which directions each [`Group`] of this model has.
@@ -154,6 +159,9 @@ impl Friction {
             branches: law.branches(),
             inverse_first_breakpoint: 1.0 / first_breakpoint,
             first_breakpoint,
+            inverse_squared_breakpoints: std::array::from_fn(|i| {
+                law.branches().get(i).map_or(0.0, |b| b.breakpoint().powi(-2))
+            }),
             present_directions: elements.map(|e| e.is_some()),
             present: {
                 let mut present = [PresentElement::default(); Direction::COUNT];
@@ -225,6 +233,33 @@ impl Friction {
     pub fn set_state(&mut self, state: SliderState) {
         self.state = state;
         self.together = state.together();
+    }
+
+    /// Whether every branch is at its element's state and sticks.
+    pub fn together(&self) -> bool {
+        self.together
+    }
+
+    /// The event values (negative while sticking) of every group and branch while each
+    /// branch is with its element and sticks, at states `x` with rates `x_rates` and the
+    /// limits `limits` (all > 0); `-inf` where there is no such group. Branch `i` carries
+    /// `w_i` of its element's force (of the force sticking needs, with a damper) against
+    /// `phi_i` of its limit: its utilisation is the element's over its breakpoint squared.
+    pub fn together_events(&self, limits: &Limits, x: &StateVector, x_rates: &[f64]) -> Events {
+        let mut utilisation = [0.0; Group::COUNT];
+        for e in &self.present[..self.present_count] {
+            let force = e.stiffness * x[e.state] + e.damping * x_rates[e.state];
+            let ratio = force / limits.0[e.direction];
+            utilisation[Direction::ALL[e.direction].group() as usize] += ratio * ratio;
+        }
+        let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
+        for group in self.groups() {
+            let g = group as usize;
+            for i in 0..self.branches.len() {
+                events[g][i] = utilisation[g] * self.inverse_squared_breakpoints[i] - 1.0;
+            }
+        }
+        events
     }
 
     /// Whether any element has a damper (DDT): its sliding force is then part of the

@@ -69,6 +69,14 @@ impl Direction {
     pub const COUNT: usize = 3;
     pub const ALL: [Direction; Direction::COUNT] =
         [Direction::Longitudinal, Direction::Lateral, Direction::Yaw];
+
+    /// The group whose limit this direction shares.
+    pub const fn group(self) -> Group {
+        match self {
+            Direction::Longitudinal | Direction::Lateral => Group::Planar,
+            Direction::Yaw => Group::Yaw,
+        }
+    }
 }
 
 /// The groups of directions that share a limit: the ellipse, and the yaw moment.

@@ -345,6 +345,29 @@ impl AffineSystem {
         driven
     }
 
+    /// `d(A x + B u)/d q`: how the state rates change with the coordinates of the
+    /// operating point at fixed states and inputs, for a change `dq` of them. Exact: the
+    /// rates are affine in the coordinates.
+    pub fn rate_slope(
+        &self,
+        dq: [f64; OperatingPoint::COORDINATES],
+        x: &crate::physics::state_space::StateVector,
+        u: &crate::physics::state_space::DrivingVector,
+    ) -> crate::physics::state_space::StateVector {
+        let mut slope = crate::physics::state_space::StateVector::zeros();
+        let (a_rows, b_rows) = (self.at_rest.a.nrows(), self.at_rest.b.nrows());
+        for term in self.varying() {
+            let change = term.slope * dq[term.coordinate as usize];
+            let index = term.index as usize;
+            match term.matrix {
+                Matrix::A => slope[index % a_rows] += change * x[index / a_rows],
+                Matrix::B => slope[index % b_rows] += change * u[index / b_rows],
+                Matrix::C | Matrix::D => {}
+            }
+        }
+        slope
+    }
+
     /// `d(C x + D u)/d q`: how the outputs change with the coordinates of the operating
     /// point at fixed states and inputs, for a change `dq` of them. Exact: the outputs are
     /// affine in the coordinates.

@@ -64,7 +64,8 @@ const EXPLICIT_CAP: usize = 256;
 const STIFF_STEP: f64 = 16.0;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
-type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
+/// Event values by group and branch.
+pub type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
 
 /// Where each quantity of a step sits in the coupled vector: first the model's states
 /// that carry no contact element (each with its own equation), then every branch
@@ -535,6 +536,19 @@ impl<'a> SlidingStep<'a> {
     /// outside its limit is put on it (the load fell), and each group's mode is decided
     /// from its state. Returns true if every group sticks strictly inside its limit.
     pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
+        self.decide_modes(x, sliders, false)
+    }
+
+    /// At an event of the hybrid system ([`crate::physics::tire::hybrid`]): as
+    /// [`SlidingStep::prepare`], and a spring group found outside its limit (the load fell
+    /// below its force) slides even where nothing moves it (not where its motion turns
+    /// inward): its slider slips as the limit falls. (A step holds the load, so it needs no
+    /// such rule.)
+    pub fn update_modes(&self, x: &mut StateVector, sliders: &mut SliderState) {
+        self.decide_modes(x, sliders, true);
+    }
+
+    fn decide_modes(&self, x: &mut StateVector, sliders: &mut SliderState, pushed_out_slides: bool) -> bool {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
         let mut inside = true;
@@ -563,7 +577,9 @@ impl<'a> SlidingStep<'a> {
                 if utilisation > 1.0 {
                     slot.put_on_ellipse(&mut z, utilisation);
                 }
-                utilisation >= 1.0 - EVENT_TOLERANCE && input.outward_cosine(&force) > 0.0
+                let cosine = input.outward_cosine(&force);
+                (pushed_out_slides && utilisation > 1.0 + 0.5 * EVENT_TOLERANCE && cosine >= 0.0)
+                    || utilisation >= 1.0 - EVENT_TOLERANCE && cosine > 0.0
             };
             sliders.sliding[slot.group][slot.branch] = sliding;
             if sliding {
@@ -608,6 +624,45 @@ impl<'a> SlidingStep<'a> {
         }
         change
     }
+
+    /// The tire as a hybrid system in the modes of `sliders` (an importer's solver
+    /// integrates it): the rates of the model's states and of the branch offsets, and each
+    /// group's event value by group and branch (negative while it keeps its mode; `-inf`
+    /// where there is no such group). A sliding spring group's force stays on its
+    /// ellipse only while the limit holds still; where the load moves the limit, its
+    /// deflections are also drawn back to the ellipse at [`SlidingStep::RETURN_RATE`] or
+    /// faster, so the force follows the limit: down as the load falls, and up as it rises
+    /// while the slider moves outward (a group inside its limit that nothing moves keeps
+    /// its force, as it would sticking).
+    pub fn mode_rates(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState, Events) {
+        let z = self.layout.pack(x, sliders);
+        let (mut rates, events) = self.rates(0.0, &z, &sliders.sliding);
+        let states = self.layout.model_states(&z);
+        let x_rates = self.system.state_rates(&states, &self.inputs);
+        for slot in self.slots() {
+            if !sliders.sliding[slot.group][slot.branch] || slot.input.damped() {
+                continue;
+            }
+            let input = self.slot_input(slot, &states, &x_rates, &z);
+            let force = input.spring_force();
+            let utilisation = input.utilisation(&force);
+            if utilisation > 1.0 || utilisation > 0.0 && input.outward_cosine(&force) > 0.0 {
+                let rate = input.sliding_rate().max(Self::RETURN_RATE);
+                let pull = rate * (1.0 - utilisation.sqrt().recip());
+                for m in input.members() {
+                    rates[slot.entries[m]] -= pull * z[slot.entries[m]];
+                }
+            }
+        }
+        let mut offset_rates = SliderState::AT_REST;
+        let x_rates = self.layout.unpack(&rates, &mut offset_rates);
+        (x_rates, offset_rates, events)
+    }
+
+    /// The slowest rate, 1/s, at which a sliding spring group's deflections return to the
+    /// ellipse in [`SlidingStep::mode_rates`]: a load that changes by 1 % per second
+    /// leaves the force about 1e-5 of the limit behind it.
+    pub const RETURN_RATE: f64 = 1000.0;
 
     /// The rates of the model's states and of the branch offsets at these states (the
     /// state rates with the limits acting).

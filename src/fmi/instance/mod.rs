@@ -1,6 +1,10 @@
 //! One FMU instance: the call sequence, variable access and FMU state around a [`Tire`].
 //! Everything here is safe Rust; `exports` turns C pointers into the slices used here.
+//! [`model_exchange`]: the calls of Model Exchange.
 
+mod model_exchange;
+
+use crate::physics::tire::hybrid::{CONTINUOUS_STATES, ContinuousStates, GUARDS};
 use crate::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
 
 use super::logger::{Category, Logger};
@@ -16,8 +20,31 @@ use super::variables::{
 /// `1 + |time|`: importers add step sizes in floating point.
 const TIME_TOLERANCE: f64 = 1e-9;
 
+/// Which interface an instance was made for (fmi2Instantiate's fmuType).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interface {
+    CoSimulation,
+    ModelExchange,
+}
+
+impl Interface {
+    pub const fn name(self) -> &'static str {
+        match self {
+            Interface::CoSimulation => "Co-Simulation",
+            Interface::ModelExchange => "Model Exchange",
+        }
+    }
+}
+
+/// What fmi2NewDiscreteStates reports (fmi2EventInfo).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EventUpdate {
+    pub continuous_states_changed: bool,
+}
+
 pub struct Instance {
     pub logger: Logger,
+    interface: Interface,
     phase: Phase,
     /// The parameters as set by the importer; checked together at initialisation.
     parameters: Parameters,
@@ -47,7 +74,7 @@ pub fn start_parameters() -> Result<Parameters, String> {
                 parameters.friction = FrictionLaw::from_value(start as i64)
                     .ok_or(format!("friction start value {start} is not a TireFriction"))?
             }
-            Role::Input(_) | Role::Output(_) => {}
+            Role::Input(_) | Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) => {}
         }
     }
     Ok(parameters)
@@ -98,11 +125,12 @@ fn same_length(what: &str, a: usize, b: usize) -> CallResult {
 }
 
 impl Instance {
-    pub fn new(logger: Logger) -> Result<Self, String> {
+    pub fn new(logger: Logger, interface: Interface) -> Result<Self, String> {
         let parameters = start_parameters()?;
         let tire = start_tire(&parameters)?;
         Ok(Self {
             logger,
+            interface,
             phase: Phase::Instantiated,
             parameters,
             parameters_changed: false,
@@ -174,9 +202,14 @@ impl Instance {
         Ok(())
     }
 
+    /// Into step mode (Co-Simulation) or event mode (Model Exchange: the importer then
+    /// asks for the initial modes with fmi2NewDiscreteStates).
     pub fn exit_initialization_mode(&mut self) -> CallResult {
         self.sync_tire()?;
-        self.phase = Phase::StepComplete;
+        self.phase = match self.interface {
+            Interface::CoSimulation => Phase::StepComplete,
+            Interface::ModelExchange => Phase::EventMode,
+        };
         Ok(())
     }
 
@@ -237,6 +270,14 @@ impl Instance {
             Role::Output(output) => {
                 self.sync_tire()?;
                 self.tire.outputs()[output as usize]
+            }
+            Role::ContinuousState(k) => {
+                self.sync_tire()?;
+                self.tire.continuous_states()[k]
+            }
+            Role::Derivative(k) => {
+                self.sync_tire()?;
+                self.tire.continuous_rates()[k]
             }
             Role::ModelChoice | Role::FrictionChoice => {
                 unreachable!("lookup checked the type: the selectors are Integers")
@@ -312,7 +353,7 @@ impl Instance {
             }
             // Importers such as the FMU Compliance Checker set every column of their input
             // file before every step: the value a fixed parameter already has is harmless.
-            Causality::Parameter if self.phase == Phase::StepComplete => {
+            Causality::Parameter if self.phase.running() => {
                 let current = self.parameter_value(variable);
                 if value == current {
                     Ok(())
@@ -337,6 +378,11 @@ impl Instance {
                     ),
                 },
             },
+            Causality::Local => refuse(
+                "it is a continuous state or its derivative: Model Exchange sets the states with \
+                 fmi2SetContinuousStates"
+                    .into(),
+            ),
             _ => refuse(format!("it is an {:?} and cannot be set", info.causality).to_lowercase()),
         }
     }
@@ -347,7 +393,7 @@ impl Instance {
             Role::Parameter(p) => self.parameters.get(p),
             Role::ModelChoice => self.parameters.model as i32 as f64,
             Role::FrictionChoice => self.parameters.friction as i32 as f64,
-            Role::Input(_) | Role::Output(_) => f64::NAN,
+            Role::Input(_) | Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) => f64::NAN,
         }
     }
 
@@ -374,7 +420,9 @@ impl Instance {
                 self.parameters.friction = FrictionLaw::from_value(value as i64).expect("checked");
                 self.parameters_changed = true;
             }
-            Role::Output(_) => unreachable!("outputs are refused by check_settable"),
+            Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) => {
+                unreachable!("outputs and locals are refused by check_settable")
+            }
         }
     }
 
@@ -567,7 +615,8 @@ impl Instance {
         Ok(())
     }
 
-    /// `dv_unknown = (d unknowns / d knowns) dv_known`, unknowns outputs, knowns inputs.
+    /// `dv_unknown = (d unknowns / d knowns) dv_known`: unknowns outputs or state
+    /// derivatives, knowns inputs or continuous states.
     pub fn directional_derivative(
         &mut self,
         unknowns: &[u32],
@@ -579,27 +628,53 @@ impl Instance {
         same_length("dvKnown", knowns.len(), seed.len())?;
         same_length("dvUnknown", unknowns.len(), result.len())?;
         self.sync_tire()?;
-        let outputs = unknowns
+        let unknown_roles = unknowns
             .iter()
             .map(|&vr| match lookup(vr, ValueType::Real)?.role() {
-                Role::Output(output) => Ok(output),
-                _ => Err(Rejection::error(format!("unknown {vr} is not an output"))),
+                role @ (Role::Output(_) | Role::Derivative(_)) => Ok(role),
+                _ => Err(Rejection::error(format!(
+                    "unknown {vr} is neither an output nor a state derivative"
+                ))),
             })
             .collect::<CallResult<Vec<_>>>()?;
-        let mut total = crate::physics::OutputVector::zeros();
+        let mut input_seed = [0.0; Input::COUNT];
+        let mut state_seed: ContinuousStates = [0.0; CONTINUOUS_STATES];
         for (&vr, &dv) in knowns.iter().zip(seed) {
-            let Role::Input(input) = lookup(vr, ValueType::Real)?.role() else {
-                return Err(Rejection::error(format!("known {vr} is not an input")));
-            };
             if !dv.is_finite() {
                 return Err(Rejection::error(format!(
                     "seed {dv} for known {vr} is not finite"
                 )));
             }
-            total += self.tire.output_sensitivity(input) * dv;
+            match lookup(vr, ValueType::Real)?.role() {
+                Role::Input(input) => input_seed[input as usize] += dv,
+                Role::ContinuousState(k) => state_seed[k] += dv,
+                _ => {
+                    return Err(Rejection::error(format!(
+                        "known {vr} is neither an input nor a continuous state"
+                    )));
+                }
+            }
         }
-        for (value, output) in result.iter_mut().zip(outputs) {
-            *value = total[output as usize];
+        let wants_rates = unknown_roles.iter().any(|r| matches!(r, Role::Derivative(_)));
+        let (rates, outputs) = if wants_rates || state_seed.iter().any(|&d| d != 0.0) {
+            self.tire.hybrid_sensitivity(&state_seed, &input_seed)
+        } else {
+            // Outputs by inputs: the sensitivities of the Co-Simulation outputs.
+            let mut total = crate::physics::OutputVector::zeros();
+            for input in Input::ALL {
+                let dv = input_seed[input as usize];
+                if dv != 0.0 {
+                    total += self.tire.output_sensitivity(input) * dv;
+                }
+            }
+            ([0.0; CONTINUOUS_STATES], total)
+        };
+        for (value, role) in result.iter_mut().zip(unknown_roles) {
+            *value = match role {
+                Role::Output(output) => outputs[output as usize],
+                Role::Derivative(k) => rates[k],
+                _ => unreachable!("checked above"),
+            };
         }
         Ok(())
     }
@@ -648,6 +723,19 @@ impl Instance {
 
     pub fn restore(&mut self, snapshot: &Snapshot) -> CallResult {
         self.require(Call::SetFmuState)?;
+        let belongs = match snapshot.phase {
+            Phase::StepComplete => Some(Interface::CoSimulation),
+            Phase::EventMode | Phase::ContinuousTimeMode => Some(Interface::ModelExchange),
+            _ => None,
+        };
+        if let Some(interface) = belongs.filter(|&i| i != self.interface) {
+            return Err(Rejection::error(format!(
+                "the FMU state was taken from a {} instance in {}; this instance is for {}",
+                interface.name(),
+                snapshot.phase.name(),
+                self.interface.name()
+            )));
+        }
         let before_initialisation = matches!(snapshot.phase, Phase::Instantiated | Phase::InitializationMode);
         let mut tire = match Tire::new(snapshot.parameters.clone()) {
             Ok(mut tire) => {

@@ -1,4 +1,7 @@
-//! One tire: parameters, states, inputs, and the exact step.
+//! One tire: parameters, states, inputs, and the exact step; [`hybrid`]: the same tire
+//! as a hybrid system for an importer's solver.
+
+pub mod hybrid;
 
 use std::fmt;
 
@@ -106,6 +109,9 @@ pub struct Tire {
     /// not valid).
     step_made_for: StepKey,
     outputs: Option<OutputVector>,
+    /// The continuous rates and guards ([`hybrid`]) for the current states and inputs,
+    /// computed once per change of either.
+    hybrid: hybrid::Evaluation,
     /// The friction sliders (`None` for the Unlimited law).
     friction: Option<Friction>,
 }
@@ -144,6 +150,7 @@ impl Tire {
             ramping: false,
             step_made_for: StepKey::NONE,
             outputs: None,
+            hybrid: hybrid::Evaluation::default(),
             friction,
         })
     }
@@ -163,8 +170,14 @@ impl Tire {
             return Err(format!("branch offset {bad} is not finite"));
         }
         friction.set_state(*sliders);
-        self.outputs = None;
+        self.changed();
         Ok(())
+    }
+
+    /// The states or inputs changed: what was derived from them is computed anew.
+    fn changed(&mut self) {
+        self.outputs = None;
+        self.hybrid.valid = false;
     }
 
     pub fn parameters(&self) -> &Parameters {
@@ -201,7 +214,7 @@ impl Tire {
         if let Some(friction) = self.friction.as_mut() {
             friction.reset();
         }
-        self.outputs = None;
+        self.changed();
         Ok(())
     }
 
@@ -224,7 +237,7 @@ impl Tire {
         {
             self.inputs = inputs;
             self.driving = Self::driving_inputs(&inputs);
-            self.outputs = None;
+            self.changed();
         }
     }
 
@@ -233,7 +246,7 @@ impl Tire {
         if self.inputs[input as usize].to_bits() != value.to_bits() {
             self.inputs[input as usize] = value;
             self.driving = Self::driving_inputs(&self.inputs);
-            self.outputs = None;
+            self.changed();
         }
     }
 
@@ -486,40 +499,51 @@ impl Tire {
             let feedthrough = self.current_system().d.column(driving as usize);
             return OutputVector::from_iterator(feedthrough.iter().copied());
         }
-        let (vx, load) = (self.input(Input::Vx), self.input(Input::Fz));
-        let point = self.operating_point(vx, load);
-        let dq = if input == Input::Vx {
-            let rho_per_vx = if vx > 0.0 {
-                1.0
-            } else if vx < 0.0 {
-                -1.0
-            } else {
-                0.0
-            };
-            [
-                1.0,
-                rho_per_vx * point.inverse_lateral_factor(),
-                rho_per_vx * point.inverse_longitudinal_factor(),
-                0.0,
-                0.0,
-            ]
-        } else {
-            let slopes = self.load_law.inverse_factor_slopes(load);
-            let rho = vx.abs();
-            [
-                0.0,
-                rho * slopes.lateral,
-                rho * slopes.longitudinal,
-                slopes.lateral,
-                slopes.longitudinal,
-            ]
-        };
+        let dq = self.operating_point_slope(input);
         let u = Self::driving_inputs(&self.inputs);
         let affine = match self.contact_mode() {
             ContactMode::Rolling => self.rolling.affine(),
             ContactMode::LiftedOff => self.lifted_off.affine(),
         };
         affine.output_slope(dq, &self.states, &u)
+    }
+
+    /// How the operating point's coordinates change per unit change of `input` (vx or
+    /// Fz; zero for the others): d|vx|/dvx is taken as 0 at vx = 0 (the value a central
+    /// difference gives), and the load enters through the length factors.
+    fn operating_point_slope(&mut self, input: Input) -> [f64; OperatingPoint::COORDINATES] {
+        let (vx, load) = (self.input(Input::Vx), self.input(Input::Fz));
+        let point = self.operating_point(vx, load);
+        match input {
+            Input::Vx => {
+                let rho_per_vx = if vx > 0.0 {
+                    1.0
+                } else if vx < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                };
+                [
+                    1.0,
+                    rho_per_vx * point.inverse_lateral_factor(),
+                    rho_per_vx * point.inverse_longitudinal_factor(),
+                    0.0,
+                    0.0,
+                ]
+            }
+            Input::Fz => {
+                let slopes = self.load_law.inverse_factor_slopes(load);
+                let rho = vx.abs();
+                [
+                    0.0,
+                    rho * slopes.lateral,
+                    rho * slopes.longitudinal,
+                    slopes.lateral,
+                    slopes.longitudinal,
+                ]
+            }
+            _ => [0.0; OperatingPoint::COORDINATES],
+        }
     }
 
     /// Advances the states by `h` seconds with the inputs held (or ramped at their rates),
@@ -631,6 +655,7 @@ impl Tire {
         // damped forces are shaped by their limits, and are computed on demand.
         let shaped_by_limits = sliding && self.friction.as_ref().is_some_and(Friction::damped);
         self.outputs = (!ramping && !shaped_by_limits).then(|| state_space.outputs(&next_states, u0));
+        self.hybrid.valid = false;
         self.step_made_for = made_for;
         self.states = next_states;
         if ramping {

@@ -1,0 +1,400 @@
+//! The tire as a hybrid system, for an importer that integrates it with its own solver
+//! (FMI Model Exchange): a continuous state vector in one fixed layout, its rates in the
+//! current modes, the guards where a mode ends, and the update at an event. The exact
+//! Co-Simulation step ([`Tire::step`]) solves the same system.
+//!
+//! - **Continuous states**: the model's states in [`MAX_STATES`] slots (those a model
+//!   lacks stay zero, with rate zero), then the offset `b_i - U` of branch `i` of each
+//!   direction's element ([`SliderState::offsets`]), direction by direction.
+//! - **Modes** (discrete states): which groups slide, and whether the wheel is on the
+//!   ground. Between events they hold, and the rates are smooth in the states, time and
+//!   inputs; [`Tire::update_modes`] changes them.
+//! - **Guards** ([`Tire::guards`]): one per group and branch, positive while the group
+//!   keeps its mode (a sticking group inside its limit; a sliding one whose motion keeps
+//!   its force on the limit) and crossing zero where it changes, half the event tolerance
+//!   past the switch itself so that a group just put on its limit sits inside its new
+//!   mode; then the load, crossing zero at lift-off and touchdown.
+
+use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire};
+use crate::physics::friction::{
+    Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState,
+};
+use crate::physics::parameters::Parameter;
+use crate::physics::signals::{Input, OutputVector};
+use crate::physics::state_space::{DrivingVector, MAX_STATES, StateVector};
+use crate::physics::stepper::OperatingPoint;
+
+/// Entries of the continuous state vector.
+pub const CONTINUOUS_STATES: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
+
+/// Guards: every group's branches, then the load.
+pub const GUARDS: usize = Group::COUNT * MAX_BRANCHES + 1;
+
+pub type ContinuousStates = [f64; CONTINUOUS_STATES];
+pub type Guards = [f64; GUARDS];
+
+/// The rates and guards at the current point, and whether they are up to date. Kept in
+/// place: the importer's next calls read them.
+#[derive(Clone, Debug)]
+pub struct Evaluation {
+    pub(super) valid: bool,
+    rates: ContinuousStates,
+    guards: Guards,
+}
+
+impl Default for Evaluation {
+    fn default() -> Self {
+        Evaluation {
+            valid: false,
+            rates: [0.0; CONTINUOUS_STATES],
+            guards: [NO_GUARD; GUARDS],
+        }
+    }
+}
+
+/// The guard of a group or branch the tire does not have: it never crosses.
+const NO_GUARD: f64 = 1.0;
+
+/// Where branch `i` of direction `d` sits in the continuous state vector.
+const fn offset_entry(d: usize, i: usize) -> usize {
+    MAX_STATES + d * MAX_BRANCHES + i
+}
+
+/// The guard of a group whose event value (negative while it keeps its mode) is `event`.
+fn guard(event: f64) -> f64 {
+    0.5 * EVENT_TOLERANCE - event
+}
+
+impl Tire {
+    /// The continuous states: the model's, then the branch offsets.
+    pub fn continuous_states(&self) -> ContinuousStates {
+        let mut z = [0.0; CONTINUOUS_STATES];
+        z[..MAX_STATES].copy_from_slice(self.states.as_slice());
+        if let Some(friction) = &self.friction {
+            for (d, offsets) in friction.state().offsets.iter().enumerate() {
+                z[offset_entry(d, 0)..offset_entry(d, MAX_BRANCHES)].copy_from_slice(offsets);
+            }
+        }
+        z
+    }
+
+    /// Sets the continuous states; the modes stay. Entries the tire does not have (states
+    /// past the model's count, branches past the law's, directions without an element)
+    /// are ignored. Every entry must be finite; on error nothing changes.
+    pub fn set_continuous_states(&mut self, z: &ContinuousStates) -> Result<(), String> {
+        // One branch-free pass for the usual case; the reason only when one is not finite.
+        if !z.iter().fold(true, |all, v| all & v.is_finite()) {
+            let k = z.iter().position(|v| !v.is_finite()).expect("one is not finite");
+            return Err(format!("continuous state {} is {}: not finite", k + 1, z[k]));
+        }
+        let n = self.rolling.affine().states();
+        self.states.as_mut_slice()[..n].copy_from_slice(&z[..n]);
+        if let Some(friction) = self.friction.as_mut() {
+            let current = friction.state();
+            let branches = friction.branches.len();
+            // Bitwise, without a branch per entry: the usual call moves no offset.
+            let mut moved = 0;
+            for (d, element) in friction.elements.iter().enumerate() {
+                if element.is_some() {
+                    for i in 0..branches {
+                        moved |= z[offset_entry(d, i)].to_bits() ^ current.offsets[d][i].to_bits();
+                    }
+                }
+            }
+            if moved != 0 {
+                let mut sliders = *current;
+                for (d, element) in friction.elements.iter().enumerate() {
+                    if element.is_some() {
+                        sliders.offsets[d][..branches]
+                            .copy_from_slice(&z[offset_entry(d, 0)..offset_entry(d, branches)]);
+                    }
+                }
+                friction.set_state(sliders);
+            }
+        }
+        self.changed();
+        Ok(())
+    }
+
+    /// The rates of the continuous states in the current modes, at the current inputs.
+    pub fn continuous_rates(&mut self) -> &ContinuousStates {
+        &self.evaluation().rates
+    }
+
+    /// The guards at the current states and inputs, in the current modes: each group's by
+    /// group and branch, then the normal load.
+    pub fn guards(&mut self) -> &Guards {
+        &self.evaluation().guards
+    }
+
+    /// The rates and guards, computed once per change of the states or inputs (a solver
+    /// asks for both at the same point).
+    fn evaluation(&mut self) -> &Evaluation {
+        if !self.hybrid.valid {
+            self.evaluate();
+        }
+        &self.hybrid
+    }
+
+    /// Writes the rates and guards at the current states and inputs.
+    fn evaluate(&mut self) {
+        let (x, u) = (self.states, self.driving);
+        let load = self.input(Input::Fz);
+        if self.contact_mode() == ContactMode::LiftedOff {
+            let x_rates = self.current_system().state_rates(&x, &u);
+            let e = &mut self.hybrid;
+            e.rates = [0.0; CONTINUOUS_STATES];
+            e.rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
+            if let Some(friction) = &self.friction {
+                for (d, offsets) in friction.state().offsets.iter().enumerate() {
+                    for (i, offset) in offsets.iter().enumerate() {
+                        e.rates[offset_entry(d, i)] = -offset / LIFT_OFF_RELAXATION_TIME;
+                    }
+                }
+            }
+            e.guards = [NO_GUARD; GUARDS];
+            e.guards[GUARDS - 1] = load;
+            e.valid = true;
+            return;
+        }
+        let limits = self.friction.as_ref().map(|_| self.limits());
+        if let (Some(friction), Some(limits)) = (&self.friction, &limits)
+            && !together_at(friction, limits)
+        {
+            return self.evaluate_modes();
+        }
+        // Every branch with its element: the model's own linear system, its rates written
+        // where they are kept.
+        let system = {
+            let point = self.operating_point(self.input(Input::Vx), load);
+            self.rolling.at(point)
+        };
+        let e = &mut self.hybrid;
+        e.rates = [0.0; CONTINUOUS_STATES];
+        system.write_state_rates(&x, &u, &mut e.rates[..MAX_STATES]);
+        e.guards = [NO_GUARD; GUARDS];
+        if let (Some(friction), Some(limits)) = (&self.friction, &limits) {
+            let events = friction.together_events(limits, &x, &e.rates[..MAX_STATES]);
+            for group in friction.groups() {
+                let g = group as usize;
+                for i in 0..friction.branches.len() {
+                    e.guards[g * MAX_BRANCHES + i] = guard(events[g][i]);
+                }
+            }
+        }
+        e.guards[GUARDS - 1] = load;
+        e.valid = true;
+    }
+
+    /// [`Tire::evaluate`] where a branch is apart from its element or slides: the law of
+    /// each group in its mode. Out of line: the usual case keeps a small frame.
+    #[cold]
+    #[inline(never)]
+    fn evaluate_modes(&mut self) {
+        let (x, inputs, load) = (self.states, self.inputs, self.input(Input::Fz));
+        let sliders = *self.sliders().expect("friction acts");
+        let step = self
+            .limited_system(&inputs, &[0.0; Input::COUNT])
+            .expect("on the ground, with friction");
+        let (x_rates, offset_rates, events) = step.mode_rates(&x, &sliders);
+        let e = &mut self.hybrid;
+        e.rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
+        for (d, offsets) in offset_rates.offsets.iter().enumerate() {
+            e.rates[offset_entry(d, 0)..offset_entry(d, MAX_BRANCHES)].copy_from_slice(offsets);
+        }
+        e.guards = [NO_GUARD; GUARDS];
+        for (g, group) in events.iter().enumerate() {
+            for (i, &event) in group.iter().enumerate() {
+                if event > f64::NEG_INFINITY {
+                    e.guards[g * MAX_BRANCHES + i] = guard(event);
+                }
+            }
+        }
+        e.guards[GUARDS - 1] = load;
+        e.valid = true;
+    }
+
+    /// At an event: each group's mode decided anew from the states and inputs (a group on
+    /// its limit whose motion pushes outward slides, with its force put on the limit; so
+    /// does one the falling load left outside it; a sliding one whose motion turns inward
+    /// sticks), as a step starts. Off the ground every group sticks. Returns whether the
+    /// continuous states changed.
+    pub fn update_modes(&mut self) -> bool {
+        let Some(friction) = self.friction.as_ref() else {
+            return false;
+        };
+        let mut sliders = *friction.state();
+        if self.contact_mode() == ContactMode::LiftedOff {
+            sliders.sliding = SliderState::AT_REST.sliding;
+            self.friction.as_mut().expect("checked above").set_state(sliders);
+            return false;
+        }
+        let before = self.continuous_states();
+        let (inputs, mut x) = (self.inputs, self.states);
+        let step = self
+            .limited_system(&inputs, &[0.0; Input::COUNT])
+            .expect("on the ground, with friction");
+        step.update_modes(&mut x, &mut sliders);
+        self.states = x;
+        self.friction.as_mut().expect("checked above").set_state(sliders);
+        self.changed();
+        let after = self.continuous_states();
+        before.iter().zip(&after).any(|(a, b)| a.to_bits() != b.to_bits())
+    }
+
+    /// A typical magnitude of each continuous state: an element's state and its branch
+    /// offsets, the elastic travel to its limit at the nominal load; the others 1.
+    pub fn continuous_state_nominals(&self) -> ContinuousStates {
+        let mut nominals = [1.0; CONTINUOUS_STATES];
+        let limits = Limits::at(&self.parameters, self.parameters.get(Parameter::NominalLoad));
+        let elements = self.model().contact_elements(&self.parameters);
+        for (d, element) in elements.iter().enumerate() {
+            let Some(element) = element else { continue };
+            let travel = limits.0[d] / element.stiffness;
+            if travel.is_finite() && travel > 0.0 {
+                nominals[element.state] = travel;
+                nominals[offset_entry(d, 0)..offset_entry(d, MAX_BRANCHES)].fill(travel);
+            }
+        }
+        nominals
+    }
+
+    /// The directional derivative of the continuous rates and of the outputs along a
+    /// change `dz` of the continuous states and `du` of the inputs, in the current modes.
+    /// While no group slides the rates are linear in the states and affine in the
+    /// operating point's coordinates, and so are the outputs: the result is exact. Where
+    /// a group slides (or a limit shapes the outputs themselves), the law is nonlinear:
+    /// a central difference along the change.
+    pub fn hybrid_sensitivity(
+        &mut self,
+        dz: &ContinuousStates,
+        du: &[f64; Input::COUNT],
+    ) -> (ContinuousStates, OutputVector) {
+        let sliding = self.sliders().is_some_and(SliderState::any_sliding);
+        if sliding || self.limit_effect() == super::LimitEffect::OnTheOutputs {
+            return self.hybrid_difference(dz, du);
+        }
+        let mut dq = [0.0; OperatingPoint::COORDINATES];
+        for input in [Input::Vx, Input::Fz] {
+            let slope = self.operating_point_slope(input);
+            for (q, s) in dq.iter_mut().zip(slope) {
+                *q += s * du[input as usize];
+            }
+        }
+        let (x, u) = (self.states, self.driving);
+        let mode = self.contact_mode();
+        let mut dx = StateVector::zeros();
+        dx.as_mut_slice().copy_from_slice(&dz[..MAX_STATES]);
+        // On the ground an element's state is the weighted sum of its branches, `U + sum
+        // w_i o_i` with the offsets `o_i` as the rates read them: a change of an offset
+        // moves the element by `w_i` of it, and each offset relaxes apart from their mean,
+        // `do_i/dt = a_kk (o_i - sum w_j o_j)`. (Off the ground each relaxes by itself.)
+        if let Some(friction) = self.friction.as_ref().filter(|_| mode == ContactMode::Rolling) {
+            for (d, element) in friction.elements.iter().enumerate() {
+                if let Some(element) = element {
+                    for (i, branch) in friction.branches.iter().enumerate() {
+                        dx[element.state] += branch.stiffness_fraction * dz[offset_entry(d, i)];
+                    }
+                }
+            }
+        }
+        let du_driving = Self::driving_inputs(du);
+        let system = self.current_system().clone();
+        let affine = match mode {
+            ContactMode::Rolling => self.rolling.affine(),
+            ContactMode::LiftedOff => self.lifted_off.affine(),
+        };
+        let mut rates = [0.0; CONTINUOUS_STATES];
+        let x_rates = system.state_rates(&dx, &du_driving) + affine.rate_slope(dq, &x, &u);
+        rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
+        let outputs = system.outputs(&dx, &du_driving) + affine.output_slope(dq, &x, &u);
+        if let Some(friction) = &self.friction {
+            let offsets = &friction.state().offsets;
+            for (d, element) in friction.elements.iter().enumerate() {
+                let Some(element) = element else { continue };
+                let k = element.state;
+                let relaxation = system.a[(k, k)];
+                let mean = |o: &dyn Fn(usize) -> f64| {
+                    (mode == ContactMode::Rolling)
+                        .then(|| {
+                            friction
+                                .branches
+                                .iter()
+                                .enumerate()
+                                .map(|(i, b)| b.stiffness_fraction * o(i))
+                                .sum::<f64>()
+                        })
+                        .unwrap_or(0.0)
+                };
+                let change_mean = mean(&|i| dz[offset_entry(d, i)]);
+                let offset_mean = mean(&|i| offsets[d][i]);
+                for i in 0..friction.branches.len() {
+                    let entry = offset_entry(d, i);
+                    rates[entry] = relaxation * (dz[entry] - change_mean);
+                    if mode == ContactMode::Rolling {
+                        // The relaxation rate moves with the operating point.
+                        let mut offset = StateVector::zeros();
+                        offset[k] = offsets[d][i] - offset_mean;
+                        rates[entry] += affine.rate_slope(dq, &offset, &DrivingVector::zeros())[k];
+                    }
+                }
+            }
+        }
+        (rates, outputs)
+    }
+
+    /// [`Tire::hybrid_sensitivity`] by a central difference along the change, each
+    /// entry moved by about 1e-6 of its typical magnitude.
+    fn hybrid_difference(
+        &mut self,
+        dz: &ContinuousStates,
+        du: &[f64; Input::COUNT],
+    ) -> (ContinuousStates, OutputVector) {
+        let (z, inputs) = (self.continuous_states(), self.inputs);
+        let nominals = self.continuous_state_nominals();
+        let load_scale = self.parameters.get(Parameter::NominalLoad);
+        let size = dz
+            .iter()
+            .zip(&nominals)
+            .map(|(d, n)| (d / n).abs())
+            .chain(Input::ALL.map(|i| {
+                let scale = if i == Input::Fz { load_scale } else { 1.0 };
+                (du[i as usize] / scale).abs()
+            }))
+            .fold(0.0, f64::max);
+        if !(size > 0.0 && size.is_finite()) {
+            return ([0.0; CONTINUOUS_STATES], OutputVector::zeros());
+        }
+        let delta = 1e-6 / size;
+        let mut at = |sign: f64| {
+            let moved_z: ContinuousStates = std::array::from_fn(|k| z[k] + sign * delta * dz[k]);
+            let moved_inputs: [f64; Input::COUNT] = std::array::from_fn(|k| inputs[k] + sign * delta * du[k]);
+            // Finite: a finite start moved by a bounded amount.
+            let _ = self.set_continuous_states(&moved_z);
+            self.set_inputs(moved_inputs);
+            (*self.continuous_rates(), self.outputs())
+        };
+        let (plus, minus) = (at(1.0), at(-1.0));
+        self.set_continuous_states(&z).expect("the states it had");
+        self.set_inputs(inputs);
+        let rates = std::array::from_fn(|k| (plus.0[k] - minus.0[k]) / (2.0 * delta));
+        (rates, (plus.1 - minus.1) / (2.0 * delta))
+    }
+
+    /// The friction limits at the current load.
+    fn limits(&self) -> Limits {
+        Limits::at(&self.parameters, self.input(Input::Fz))
+    }
+}
+
+/// Whether every branch is with its element and sticks, and every limit acts: the
+/// model's linear system moves the tire, and each group's guard follows from its
+/// element's force ([`Friction::together_events`]).
+fn together_at(friction: &Friction, limits: &Limits) -> bool {
+    friction.together()
+        && friction
+            .elements
+            .iter()
+            .zip(limits.0)
+            .all(|(element, limit)| element.is_none() || limit > 0.0)
+}
