@@ -2,19 +2,22 @@
 //! unzips `TireLag.fmu`, parses its modelDescription.xml with its own schema, loads
 //! `binaries/linux64/TireLag.so` and drives an FMI 2.0 Co-Simulation instance. Every model,
 //! run through it for 200 steps of a fixed input sequence, must give the outputs of the
-//! physics core stepped directly.
+//! physics core stepped directly. Then a Model Exchange instance of the same FMU,
+//! integrated by a solver of this test's own through the crate, must give the same
+//! trajectory with the friction limit acting.
 
 mod support;
 
 use std::path::PathBuf;
 use std::sync::Once;
 
+use fmi::EventFlags;
 use fmi::fmi2::import::Fmi2Import;
-use fmi::fmi2::instance::{CoSimulation, Common};
+use fmi::fmi2::instance::{CoSimulation, Common, ModelExchange};
 use fmi::fmi2::schema::{Causality, ScalarVariableElement};
 use fmi::fmi2::{Fmi2Error, Fmi2Res};
 use fmi::traits::FmiImport;
-use tirelag::physics::{Input, ModelKind, Output, Parameters, Tire};
+use tirelag::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
 
 const STEP_SIZE: f64 = 0.01;
 const STEPS: usize = 200;
@@ -133,7 +136,11 @@ fn fmi_crate_reads_the_model_description() {
         .as_ref()
         .expect("the fmi crate finds the CoSimulation element");
     assert_eq!(cs.model_identifier, "TireLag");
-    assert!(md.model_exchange.is_none());
+    let me = md
+        .model_exchange
+        .as_ref()
+        .expect("the fmi crate finds the ModelExchange element");
+    assert_eq!(me.model_identifier, "TireLag");
 
     let variable = |name: &str| {
         md.model_variable_by_name(name)
@@ -219,6 +226,210 @@ fn fmi_crate_co_simulation_matches_the_physics_core_for_every_model() {
             "{}: {STEPS} steps through the fmi crate match the physics core; largest relative \
              difference {worst:e}, largest |Fy| {largest_fy:.1} N",
             kind.name()
+        );
+    }
+}
+
+/// The continuous states and event indicators of the FMU's Model Exchange interface.
+const STATES: usize = 18;
+const INDICATORS: usize = 9;
+const MU_Y: (&str, u32) = ("muY", 123);
+const FRICTION: (&str, u32) = ("friction", 121);
+/// Substeps of the classical Runge-Kutta method per communication step.
+const SUBSTEPS: usize = 100;
+
+/// A Model Exchange instance integrated by the classical fourth-order Runge-Kutta method
+/// with state events located by bisection on the substep: the importer's side of Model
+/// Exchange, written here on the `fmi` crate's calls.
+struct Integrator {
+    fmu: fmi::fmi2::instance::Instance<fmi::ME>,
+    time: f64,
+    events: usize,
+}
+
+impl Integrator {
+    fn rates(&mut self, t: f64, x: &[f64; STATES]) -> [f64; STATES] {
+        ok("fmi2SetTime", self.fmu.set_time(t));
+        ok("fmi2SetContinuousStates", self.fmu.set_continuous_states(x));
+        let mut dx = [0.0; STATES];
+        ok("fmi2GetDerivatives", self.fmu.get_derivatives(&mut dx));
+        dx
+    }
+
+    fn indicators(&mut self, t: f64, x: &[f64; STATES]) -> [f64; INDICATORS] {
+        ok("fmi2SetTime", self.fmu.set_time(t));
+        ok("fmi2SetContinuousStates", self.fmu.set_continuous_states(x));
+        let mut z = [0.0; INDICATORS];
+        assert!(matches!(self.fmu.get_event_indicators(&mut z), Ok(true)));
+        z
+    }
+
+    fn runge_kutta(&mut self, x: &[f64; STATES], h: f64) -> [f64; STATES] {
+        let t = self.time;
+        let along = |x: &[f64; STATES], k: &[f64; STATES], f: f64| -> [f64; STATES] {
+            std::array::from_fn(|i| x[i] + f * h * k[i])
+        };
+        let k1 = self.rates(t, x);
+        let k2 = self.rates(t + 0.5 * h, &along(x, &k1, 0.5));
+        let k3 = self.rates(t + 0.5 * h, &along(x, &k2, 0.5));
+        let k4 = self.rates(t + h, &along(x, &k3, 1.0));
+        std::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+    }
+
+    fn event_update(&mut self) {
+        ok("fmi2EnterEventMode", self.fmu.enter_event_mode());
+        let mut flags = EventFlags::default();
+        ok("fmi2NewDiscreteStates", self.fmu.new_discrete_states(&mut flags));
+        assert!(!flags.discrete_states_need_update);
+        ok(
+            "fmi2EnterContinuousTimeMode",
+            self.fmu.enter_continuous_time_mode(),
+        );
+    }
+
+    /// Integrates over `h` with the inputs held; the inputs jumped at the start (an event).
+    fn advance(&mut self, h: f64) {
+        self.event_update();
+        let end = self.time + h;
+        let mut x = [0.0; STATES];
+        ok("fmi2GetContinuousStates", self.fmu.get_continuous_states(&mut x));
+        for substep in 0..SUBSTEPS {
+            let until = self.time + h / SUBSTEPS as f64;
+            let until = if substep + 1 == SUBSTEPS { end } else { until };
+            loop {
+                let length = until - self.time;
+                if length <= 0.0 {
+                    break;
+                }
+                let before = self.indicators(self.time, &x);
+                let crossed =
+                    |z: &[f64; INDICATORS]| before.iter().zip(z).any(|(b, a)| (*b > 0.0) != (*a > 0.0));
+                let full = self.runge_kutta(&x, length);
+                if !crossed(&self.indicators(until, &full)) {
+                    x = full;
+                    self.time = until;
+                    break;
+                }
+                // The first crossing, to 1e-13 of the substep.
+                let (mut inside, mut past) = (0.0, length);
+                while past - inside > 1e-13 * length {
+                    let middle = 0.5 * (inside + past);
+                    let at = self.runge_kutta(&x, middle);
+                    if crossed(&self.indicators(self.time + middle, &at)) {
+                        past = middle;
+                    } else {
+                        inside = middle;
+                    }
+                }
+                x = self.runge_kutta(&x, past);
+                self.time += past;
+                ok("fmi2SetContinuousStates", self.fmu.set_continuous_states(&x));
+                self.events += 1;
+                self.event_update();
+                ok("fmi2GetContinuousStates", self.fmu.get_continuous_states(&mut x));
+            }
+        }
+        ok("fmi2SetTime", self.fmu.set_time(self.time));
+        ok("fmi2SetContinuousStates", self.fmu.set_continuous_states(&x));
+    }
+}
+
+/// Every model with the Coulomb law at a low lateral limit (muY = 0.05: Fmax_y = 2.5 kN), so
+/// that the input sequence above slides the tire in both directions: the Model Exchange
+/// interface through the `fmi` crate, integrated by [`Integrator`], against the exact step
+/// of the physics core at every communication point.
+#[test]
+fn fmi_crate_model_exchange_matches_the_exact_step_for_every_model() {
+    let import = import();
+    let input_vrs = INPUTS.map(|(_, vr, _)| vr);
+    let output_vrs = OUTPUTS.map(|(_, vr, _)| vr);
+    let mu = 0.05;
+    for kind in ModelKind::ALL {
+        let fmu = import
+            .instantiate_me(&format!("fmi_importer_me_{}", kind.name()), false, true)
+            .unwrap_or_else(|e| panic!("the fmi crate cannot instantiate the FMU: {e} ({e:?})"));
+        let mut me = Integrator {
+            fmu,
+            time: 0.0,
+            events: 0,
+        };
+        ok("fmi2SetupExperiment", me.fmu.setup_experiment(None, 0.0, None));
+        ok(
+            "fmi2SetInteger",
+            me.fmu.set_integer(
+                &[MODEL.1, FRICTION.1],
+                &[kind as i32, FrictionLaw::Coulomb as i32],
+            ),
+        );
+        ok("fmi2SetReal(muY)", me.fmu.set_real(&[MU_Y.1], &[mu]));
+        ok(
+            "fmi2EnterInitializationMode",
+            Common::enter_initialization_mode(&mut me.fmu),
+        );
+        ok(
+            "fmi2ExitInitializationMode",
+            Common::exit_initialization_mode(&mut me.fmu),
+        );
+        ok("fmi2EnterContinuousTimeMode", {
+            let mut flags = EventFlags::default();
+            ok("fmi2NewDiscreteStates", me.fmu.new_discrete_states(&mut flags));
+            me.fmu.enter_continuous_time_mode()
+        });
+
+        let mut parameters = Parameters::default().with_model(kind);
+        parameters.friction = FrictionLaw::Coulomb;
+        parameters
+            .set(Parameter::LateralFriction, mu)
+            .expect("a valid muY");
+        let mut core = Tire::new(parameters).expect("valid parameters");
+        let fmax = mu * core.input(Input::Fz);
+        let mut worst: f64 = 0.0;
+        let mut largest_fy: f64 = 0.0;
+        for k in 0..STEPS {
+            let u = inputs_at(k);
+            ok("fmi2EnterEventMode", me.fmu.enter_event_mode());
+            ok("fmi2SetReal(inputs)", me.fmu.set_real(&input_vrs, &u));
+            me.advance(STEP_SIZE);
+            let mut y = [0.0; 9];
+            ok("fmi2GetReal(outputs)", me.fmu.get_real(&output_vrs, &mut y));
+
+            for ((_, _, input), value) in INPUTS.iter().zip(u) {
+                core.set_input(*input, value);
+            }
+            core.step(STEP_SIZE).expect("the physics core steps");
+            let exact = core.outputs();
+            for (name, index) in [("Fx", 0), ("Fy", 1)] {
+                let difference = (y[index] - exact[OUTPUTS[index].2 as usize]).abs() / fmax;
+                assert!(
+                    difference <= 1e-6,
+                    "{} model at {:.2} s: {name} {} through Model Exchange, {} exact ({difference:e} Fmax)",
+                    kind.name(),
+                    me.time,
+                    y[index],
+                    exact[OUTPUTS[index].2 as usize]
+                );
+                worst = worst.max(difference);
+            }
+            largest_fy = largest_fy.max(y[1].abs());
+        }
+        // (The contact-mass models' hub force adds the contact mass's inertia to the limited
+        // tread force: it may pass the limit in transients.)
+        assert!(
+            largest_fy >= (1.0 - 1e-6) * fmax,
+            "{} model: the tire must reach its limit ({largest_fy} N of {fmax} N)",
+            kind.name()
+        );
+        assert!(
+            me.events >= 2,
+            "{} model: {} state events",
+            kind.name(),
+            me.events
+        );
+        println!(
+            "{}: Model Exchange through the fmi crate, {} state events over {STEPS} steps; largest \
+             difference from the exact step {worst:e} Fmax",
+            kind.name(),
+            me.events
         );
     }
 }

@@ -1,14 +1,19 @@
 //! SPEC 6b: no heap allocation in fmi2SetReal, fmi2GetReal or fmi2DoStep after the first
 //! step. A counting global allocator watches this test's thread while 10,000 full steps
 //! of each model (5 inputs set with vx and Fz changing every step, a step, 9 outputs
-//! read), without a friction limit, with Brush sticking and with Brush sliding, run through the crate's exported C functions, called in-process (a separately
-//! loaded .so would bring its own allocator, which this one could not see).
+//! read), without a friction limit, with Brush sticking and with Brush sliding, run through
+//! the crate's exported C functions, called in-process (a separately loaded .so would bring
+//! its own allocator, which this one could not see). The same for Model Exchange: 10,000
+//! evaluations (time, states and inputs set, derivatives and event indicators read) along
+//! an explicit Euler integration, with the event updates a slide brings.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ffi::CString;
 
-use fmi_sys::fmi2::{fmi2Status_fmi2OK, fmi2Type_fmi2CoSimulation};
+use fmi_sys::fmi2::{
+    fmi2EventInfo, fmi2Status_fmi2OK, fmi2Type_fmi2CoSimulation, fmi2Type_fmi2ModelExchange,
+};
 use tirelag::fmi::exports::*;
 
 mod support;
@@ -137,6 +142,85 @@ fn a_step_allocates_nothing_after_the_first() {
                     outputs[1].abs() <= 0.02 * 50_000.0 * 1.05,
                     "the limit acts: Fy = {}",
                     outputs[1]
+                );
+            }
+            fmi2FreeInstance(c);
+        }
+    }
+}
+
+#[test]
+fn a_model_exchange_evaluation_allocates_nothing() {
+    let callbacks = support::callbacks();
+    let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
+    const STATES: usize = 18;
+    const INDICATORS: usize = 9;
+    for model in 1..=4 {
+        for (friction, mu) in [(1, None), (3, None), (3, Some(0.02)), (2, Some(0.02))] {
+            let name = CString::new(format!("no_allocation_me_{model}_{friction}_{mu:?}")).unwrap();
+            let c = fmi2Instantiate(
+                name.as_ptr(),
+                fmi2Type_fmi2ModelExchange,
+                guid.as_ptr(),
+                c"".as_ptr(),
+                &callbacks,
+                0,
+                0,
+            );
+            assert!(!c.is_null());
+            assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
+            assert_eq!(fmi2SetInteger(c, &FRICTION, 1, &friction) as i32, OK);
+            if let Some(mu) = mu {
+                assert_eq!(fmi2SetReal(c, MU.as_ptr(), 2, [mu, mu].as_ptr()) as i32, OK);
+            }
+            assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
+            assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
+            assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
+            let mut info = unsafe { std::mem::zeroed::<fmi2EventInfo>() };
+            assert_eq!(fmi2NewDiscreteStates(c, &mut info) as i32, OK);
+            assert_eq!(fmi2EnterContinuousTimeMode(c) as i32, OK);
+            let h = 1e-4;
+            let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
+            let (mut x, mut dx) = ([0.0; STATES], [0.0; STATES]);
+            let (mut before, mut after) = ([0.0; INDICATORS], [0.0; INDICATORS]);
+            let mut events = 0;
+            let mut evaluate = |k: usize| {
+                assert_eq!(fmi2SetTime(c, k as f64 * h) as i32, OK);
+                assert_eq!(fmi2SetContinuousStates(c, x.as_ptr(), STATES) as i32, OK);
+                assert_eq!(fmi2SetReal(c, INPUTS.as_ptr(), 5, table[k].as_ptr()) as i32, OK);
+                assert_eq!(fmi2GetDerivatives(c, dx.as_mut_ptr(), STATES) as i32, OK);
+                assert_eq!(
+                    fmi2GetEventIndicators(c, after.as_mut_ptr(), INDICATORS) as i32,
+                    OK
+                );
+                if k > 0 && before.iter().zip(&after).any(|(b, a)| (*b > 0.0) != (*a > 0.0)) {
+                    events += 1;
+                    assert_eq!(fmi2EnterEventMode(c) as i32, OK);
+                    assert_eq!(fmi2NewDiscreteStates(c, &mut info) as i32, OK);
+                    assert_eq!(fmi2EnterContinuousTimeMode(c) as i32, OK);
+                    assert_eq!(fmi2GetContinuousStates(c, x.as_mut_ptr(), STATES) as i32, OK);
+                    assert_eq!(fmi2GetDerivatives(c, dx.as_mut_ptr(), STATES) as i32, OK);
+                    assert_eq!(
+                        fmi2GetEventIndicators(c, after.as_mut_ptr(), INDICATORS) as i32,
+                        OK
+                    );
+                }
+                before = after;
+                for (state, rate) in x.iter_mut().zip(&dx) {
+                    *state += h * rate;
+                }
+            };
+            evaluate(0);
+            let allocations = allocations_in(|| (1..=10_000).for_each(&mut evaluate));
+            assert_eq!(
+                allocations, 0,
+                "model {model}, friction {friction}, mu {mu:?}: {allocations} allocations in 10,000 evaluations"
+            );
+            assert!(x.iter().all(|v| v.is_finite()));
+            if mu.is_some() {
+                assert!(
+                    events > 0,
+                    "model {model}, friction {friction}: the tire must slide"
                 );
             }
             fmi2FreeInstance(c);

@@ -255,8 +255,12 @@ impl Friction {
         let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
         for group in self.groups() {
             let g = group as usize;
-            for i in 0..self.branches.len() {
-                events[g][i] = utilisation[g] * self.inverse_squared_breakpoints[i] - 1.0;
+            let branches = self.branches.len();
+            for (event, scale) in events[g][..branches]
+                .iter_mut()
+                .zip(&self.inverse_squared_breakpoints)
+            {
+                *event = utilisation[g] * scale - 1.0;
             }
         }
         events

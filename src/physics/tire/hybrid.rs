@@ -177,8 +177,12 @@ impl Tire {
             let events = friction.together_events(limits, &x, &e.rates[..MAX_STATES]);
             for group in friction.groups() {
                 let g = group as usize;
-                for i in 0..friction.branches.len() {
-                    e.guards[g * MAX_BRANCHES + i] = guard(events[g][i]);
+                let branches = friction.branches.len();
+                for (slot, &event) in e.guards[g * MAX_BRANCHES..]
+                    .iter_mut()
+                    .zip(&events[g][..branches])
+                {
+                    *slot = guard(event);
                 }
             }
         }
@@ -315,27 +319,23 @@ impl Tire {
                 let k = element.state;
                 let relaxation = system.a[(k, k)];
                 let mean = |o: &dyn Fn(usize) -> f64| {
-                    (mode == ContactMode::Rolling)
-                        .then(|| {
-                            friction
-                                .branches
-                                .iter()
-                                .enumerate()
-                                .map(|(i, b)| b.stiffness_fraction * o(i))
-                                .sum::<f64>()
-                        })
-                        .unwrap_or(0.0)
+                    if mode == ContactMode::Rolling {
+                        let weighted = friction.branches.iter().enumerate();
+                        weighted.map(|(i, b)| b.stiffness_fraction * o(i)).sum::<f64>()
+                    } else {
+                        0.0
+                    }
                 };
                 let change_mean = mean(&|i| dz[offset_entry(d, i)]);
                 let offset_mean = mean(&|i| offsets[d][i]);
-                for i in 0..friction.branches.len() {
+                for (i, offset) in offsets[d].iter().enumerate().take(friction.branches.len()) {
                     let entry = offset_entry(d, i);
                     rates[entry] = relaxation * (dz[entry] - change_mean);
                     if mode == ContactMode::Rolling {
                         // The relaxation rate moves with the operating point.
-                        let mut offset = StateVector::zeros();
-                        offset[k] = offsets[d][i] - offset_mean;
-                        rates[entry] += affine.rate_slope(dq, &offset, &DrivingVector::zeros())[k];
+                        let mut apart = StateVector::zeros();
+                        apart[k] = offset - offset_mean;
+                        rates[entry] += affine.rate_slope(dq, &apart, &DrivingVector::zeros())[k];
                     }
                 }
             }
