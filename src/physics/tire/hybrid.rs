@@ -92,15 +92,13 @@ impl Tire {
         if let Some(friction) = self.friction.as_mut() {
             let current = friction.state();
             let branches = friction.branches.len();
-            // Bitwise, without a branch per entry: the usual call moves no offset.
-            let mut moved = 0;
-            for (d, element) in friction.elements.iter().enumerate() {
-                if element.is_some() {
-                    for i in 0..branches {
-                        moved |= z[offset_entry(d, i)].to_bits() ^ current.offsets[d][i].to_bits();
-                    }
-                }
-            }
+            // All offsets at once, bitwise and without a branch per entry: the usual call
+            // moves none. (Entries the tire lacks, set to anything but zero, take the
+            // general path below, which leaves them out.)
+            let moved = z[offset_entry(0, 0)..]
+                .iter()
+                .zip(current.offsets.as_flattened())
+                .fold(0, |moved, (new, old)| moved | (new.to_bits() ^ old.to_bits()));
             if moved != 0 {
                 let mut sliders = *current;
                 for (d, element) in friction.elements.iter().enumerate() {
