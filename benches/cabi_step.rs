@@ -39,23 +39,6 @@ fn step_size() -> f64 {
 }
 const INPUTS: [u32; 5] = [vr::VX, vr::VY, vr::STEER_RATE, vr::VSX, vr::FZ];
 
-fn input_table(varying: bool, steps: usize, step: f64) -> Vec<[f64; 5]> {
-    (0..steps)
-        .map(|k| {
-            let t = k as f64 * step;
-            let (vx, fz) = if varying {
-                (
-                    10.0 + 1e-3 * (k % 1000) as f64,
-                    50_000.0 * (1.0 + 0.02 * (2.0 * t).sin()),
-                )
-            } else {
-                (10.0, 50_000.0)
-            };
-            [vx, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), fz]
-        })
-        .collect()
-}
-
 /// Nanoseconds per full step, one pass over `table` on one instance.
 fn pass(slave: &mut Slave, table: &[[f64; 5]], step: f64, outputs: &mut [f64; 9]) -> f64 {
     let fmu = slave.fmu;
@@ -79,11 +62,6 @@ fn pass(slave: &mut Slave, table: &[[f64; 5]], step: f64, outputs: &mut [f64; 9]
 /// A friction setting: its name, the `friction` value and Real parameters to set.
 type Setting = (&'static str, i32, &'static [(u32, f64)]);
 
-fn median(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
-}
-
 fn main() {
     // `cargo test --benches` runs this without --bench: a short smoke pass then.
     let (steps, passes) = if std::env::args().any(|a| a == "--bench") {
@@ -93,7 +71,7 @@ fn main() {
     };
     let fmu = support::load();
     let step = step_size();
-    let tables = [input_table(true, steps, step), input_table(false, steps, step)];
+    let tables = [true, false].map(|varying| support::yardstick_inputs(varying, steps, step));
     println!(
         "{:<26} {:>24} {:>24}",
         format!("ns per step (h = {} ms)", step * 1e3),
@@ -117,11 +95,7 @@ fn main() {
                 let times: Vec<f64> = (0..passes)
                     .map(|_| pass(&mut slave, table, step, &mut outputs))
                     .collect();
-                let (low, high) = (
-                    times.iter().copied().fold(f64::INFINITY, f64::min),
-                    times.iter().copied().fold(0.0, f64::max),
-                );
-                cells.push(format!("{:.0} ({low:.0}-{high:.0})", median(times)));
+                cells.push(support::timing_cell(times).1);
             }
             println!("{name:<26} {:>24} {:>24}", cells[0], cells[1]);
         }
@@ -158,12 +132,9 @@ fn stiff_light_tire(fmu: &fmi_sys::fmi2::Fmi2Binding, steps: usize, passes: usiz
                 let times: Vec<f64> = (0..passes)
                     .map(|_| pass(&mut slave, &table, step, &mut outputs))
                     .collect();
-                let (low, high) = (
-                    times.iter().copied().fold(f64::INFINITY, f64::min),
-                    times.iter().copied().fold(0.0, f64::max),
-                );
-                medians.push(median(times.clone()));
-                cells.push(format!("{:.0} ({low:.0}-{high:.0})", medians[medians.len() - 1]));
+                let (median, cell) = support::timing_cell(times);
+                medians.push(median);
+                cells.push(cell);
             }
             println!(
                 "{:<26} {:>24} {:>24} {:>7.1}",

@@ -24,23 +24,6 @@ const INDICATORS: usize = 9;
 const STEP: f64 = 1e-4;
 const INPUTS: [u32; 5] = [vr::VX, vr::VY, vr::STEER_RATE, vr::VSX, vr::FZ];
 
-fn input_table(varying: bool, steps: usize) -> Vec<[f64; 5]> {
-    (0..steps)
-        .map(|k| {
-            let t = k as f64 * STEP;
-            let (vx, fz) = if varying {
-                (
-                    10.0 + 1e-3 * (k % 1000) as f64,
-                    50_000.0 * (1.0 + 0.02 * (2.0 * t).sin()),
-                )
-            } else {
-                (10.0, 50_000.0)
-            };
-            [vx, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), fz]
-        })
-        .collect()
-}
-
 /// Nanoseconds per evaluation, one pass over `table` from states `x`.
 fn pass(slave: &Slave, table: &[[f64; 5]], x: &mut [f64; STATES]) -> f64 {
     let fmu = slave.fmu;
@@ -69,11 +52,6 @@ fn pass(slave: &Slave, table: &[[f64; 5]], x: &mut [f64; STATES]) -> f64 {
     start.elapsed().as_nanos() as f64 / table.len() as f64
 }
 
-fn median(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
-}
-
 fn main() {
     // `cargo test --benches` runs this without --bench: a short smoke pass then.
     let (steps, passes) = if std::env::args().any(|a| a == "--bench") {
@@ -82,7 +60,7 @@ fn main() {
         (200, 1)
     };
     let fmu = support::load();
-    let tables = [input_table(true, steps), input_table(false, steps)];
+    let tables = [true, false].map(|varying| support::yardstick_inputs(varying, steps, STEP));
     println!(
         "{:<26} {:>24} {:>24}",
         "ns per ME evaluation", "vx, Fz varying (min-max)", "constant (min-max)"
@@ -102,11 +80,7 @@ fn main() {
                 let mut x = [0.0; STATES];
                 pass(&slave, table, &mut x); // warm-up
                 let times: Vec<f64> = (0..passes).map(|_| pass(&slave, table, &mut x)).collect();
-                let (low, high) = (
-                    times.iter().copied().fold(f64::INFINITY, f64::min),
-                    times.iter().copied().fold(0.0, f64::max),
-                );
-                cells.push(format!("{:.0} ({low:.0}-{high:.0})", median(times)));
+                cells.push(support::timing_cell(times).1);
             }
             println!(
                 "{:<26} {:>24} {:>24}",

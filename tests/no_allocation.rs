@@ -81,6 +81,34 @@ fn inputs_at(k: usize) -> [f64; 5] {
     ]
 }
 
+/// An instance (Co-Simulation or Model Exchange: `kind`) of model `model` with friction law
+/// `friction` (and mu = `mu` in both directions), initialised.
+fn initialised(name: &str, kind: u32, model: i32, friction: i32, mu: Option<f64>) -> *mut std::ffi::c_void {
+    // The FMU keeps the logger and environment, not the table.
+    let callbacks = support::callbacks();
+    let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
+    let name = CString::new(name).unwrap();
+    let c = fmi2Instantiate(
+        name.as_ptr(),
+        kind as _,
+        guid.as_ptr(),
+        c"".as_ptr(),
+        &callbacks,
+        0,
+        0,
+    );
+    assert!(!c.is_null());
+    assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
+    assert_eq!(fmi2SetInteger(c, &FRICTION, 1, &friction) as i32, OK);
+    if let Some(mu) = mu {
+        assert_eq!(fmi2SetReal(c, MU.as_ptr(), 2, [mu, mu].as_ptr()) as i32, OK);
+    }
+    assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
+    assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
+    assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
+    c
+}
+
 #[test]
 fn the_counter_sees_an_allocation() {
     assert_eq!(allocations_in(|| drop(std::hint::black_box(vec![1u8; 16]))), 1);
@@ -88,8 +116,6 @@ fn the_counter_sees_an_allocation() {
 
 #[test]
 fn a_step_allocates_nothing_after_the_first() {
-    let callbacks = support::callbacks();
-    let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
     // Each model without a limit, with Brush (sticking at these inputs), with Brush at
     // mu = 0.02 (sliding: every step goes through the sliding integration), and with Brush
     // at 5 ms steps (sticking steps longer than one force bound: bounded part by part).
@@ -101,25 +127,8 @@ fn a_step_allocates_nothing_after_the_first() {
     ];
     for model in 1..=4 {
         for (friction, mu, h) in settings {
-            let name = CString::new(format!("no_allocation_{model}_{friction}_{h}")).unwrap();
-            let c = fmi2Instantiate(
-                name.as_ptr(),
-                fmi2Type_fmi2CoSimulation,
-                guid.as_ptr(),
-                c"".as_ptr(),
-                &callbacks,
-                0,
-                0,
-            );
-            assert!(!c.is_null());
-            assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
-            assert_eq!(fmi2SetInteger(c, &FRICTION, 1, &friction) as i32, OK);
-            if let Some(mu) = mu {
-                assert_eq!(fmi2SetReal(c, MU.as_ptr(), 2, [mu, mu].as_ptr()) as i32, OK);
-            }
-            assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
-            assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
-            assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
+            let name = format!("no_allocation_{model}_{friction}_{h}");
+            let c = initialised(&name, fmi2Type_fmi2CoSimulation, model, friction, mu);
             let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
             let mut outputs = [0.0; 9];
             let mut step = |k: usize| {
@@ -151,31 +160,12 @@ fn a_step_allocates_nothing_after_the_first() {
 
 #[test]
 fn a_model_exchange_evaluation_allocates_nothing() {
-    let callbacks = support::callbacks();
-    let guid = CString::new(tirelag::fmi::variables::GUID).unwrap();
     const STATES: usize = 18;
     const INDICATORS: usize = 9;
     for model in 1..=4 {
         for (friction, mu) in [(1, None), (3, None), (3, Some(0.02)), (2, Some(0.02))] {
-            let name = CString::new(format!("no_allocation_me_{model}_{friction}_{mu:?}")).unwrap();
-            let c = fmi2Instantiate(
-                name.as_ptr(),
-                fmi2Type_fmi2ModelExchange,
-                guid.as_ptr(),
-                c"".as_ptr(),
-                &callbacks,
-                0,
-                0,
-            );
-            assert!(!c.is_null());
-            assert_eq!(fmi2SetInteger(c, &TIRE_MODEL, 1, &model) as i32, OK);
-            assert_eq!(fmi2SetInteger(c, &FRICTION, 1, &friction) as i32, OK);
-            if let Some(mu) = mu {
-                assert_eq!(fmi2SetReal(c, MU.as_ptr(), 2, [mu, mu].as_ptr()) as i32, OK);
-            }
-            assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) as i32, OK);
-            assert_eq!(fmi2EnterInitializationMode(c) as i32, OK);
-            assert_eq!(fmi2ExitInitializationMode(c) as i32, OK);
+            let name = format!("no_allocation_me_{model}_{friction}_{mu:?}");
+            let c = initialised(&name, fmi2Type_fmi2ModelExchange, model, friction, mu);
             let mut info = unsafe { std::mem::zeroed::<fmi2EventInfo>() };
             assert_eq!(fmi2NewDiscreteStates(c, &mut info) as i32, OK);
             assert_eq!(fmi2EnterContinuousTimeMode(c) as i32, OK);

@@ -38,6 +38,35 @@ pub mod vr {
     pub const SIGMA_TREAD: u32 = 119;
 }
 
+/// The shared yardstick's inputs `[vx, vy, steerRate, vsx, Fz]` at each of `steps` steps
+/// of `step` seconds: vy = 0.1 sin t, steerRate = 0.05 cos t, vsx = 0.01 sin t; "varying",
+/// vx = 10 + 0.001 (k mod 1000) and Fz = 50000 (1 + 0.02 sin 2t) changing every step as in
+/// a vehicle model, else vx = 10 and Fz = 50000 (the benchmarks tabulate them).
+pub fn yardstick_inputs(varying: bool, steps: usize, step: f64) -> Vec<[f64; 5]> {
+    (0..steps)
+        .map(|k| {
+            let t = k as f64 * step;
+            let (vx, fz) = if varying {
+                (
+                    10.0 + 1e-3 * (k % 1000) as f64,
+                    50_000.0 * (1.0 + 0.02 * (2.0 * t).sin()),
+                )
+            } else {
+                (10.0, 50_000.0)
+            };
+            [vx, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), fz]
+        })
+        .collect()
+}
+
+/// The median of timings, and their smallest and largest: "median (min-max)".
+pub fn timing_cell(mut times: Vec<f64>) -> (f64, String) {
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    let cell = format!("{median:.0} ({:.0}-{:.0})", times[0], times[times.len() - 1]);
+    (median, cell)
+}
+
 /// A file written by `./scripts/build-fmu`: the path in `env_var`, else `relative` to the
 /// crate. A missing file fails the test with the command that makes it.
 pub fn packed_artifact(env_var: &str, relative: &str) -> PathBuf {

@@ -355,16 +355,7 @@ impl AffineSystem {
         u: &crate::physics::state_space::DrivingVector,
     ) -> crate::physics::state_space::StateVector {
         let mut slope = crate::physics::state_space::StateVector::zeros();
-        let (a_rows, b_rows) = (self.at_rest.a.nrows(), self.at_rest.b.nrows());
-        for term in self.varying() {
-            let change = term.slope * dq[term.coordinate as usize];
-            let index = term.index as usize;
-            match term.matrix {
-                Matrix::A => slope[index % a_rows] += change * x[index / a_rows],
-                Matrix::B => slope[index % b_rows] += change * u[index / b_rows],
-                Matrix::C | Matrix::D => {}
-            }
-        }
+        self.add_slope(dq, (x, u), (Matrix::A, Matrix::B), slope.as_mut_slice());
         slope
     }
 
@@ -378,16 +369,30 @@ impl AffineSystem {
         u: &crate::physics::state_space::DrivingVector,
     ) -> crate::physics::signals::OutputVector {
         let mut slope = crate::physics::signals::OutputVector::zeros();
-        let (c_rows, d_rows) = (self.at_rest.c.nrows(), self.at_rest.d.nrows());
+        self.add_slope(dq, (x, u), (Matrix::C, Matrix::D), slope.as_mut_slice());
+        slope
+    }
+
+    /// Adds `d(M x + N u)/d q dq` to `slope`, for the pair of matrices `(M, N)`: (A, B) or
+    /// (C, D), whose rows are `slope`'s entries.
+    fn add_slope(
+        &self,
+        dq: [f64; OperatingPoint::COORDINATES],
+        (x, u): (
+            &crate::physics::state_space::StateVector,
+            &crate::physics::state_space::DrivingVector,
+        ),
+        (states, inputs): (Matrix, Matrix),
+        slope: &mut [f64],
+    ) {
+        let rows = slope.len();
         for term in self.varying() {
-            let change = term.slope * dq[term.coordinate as usize];
-            let index = term.index as usize;
-            match term.matrix {
-                Matrix::C => slope[index % c_rows] += change * x[index / c_rows],
-                Matrix::D => slope[index % d_rows] += change * u[index / d_rows],
-                Matrix::A | Matrix::B => {}
+            let (index, change) = (term.index as usize, term.slope * dq[term.coordinate as usize]);
+            if term.matrix == states {
+                slope[index % rows] += change * x[index / rows];
+            } else if term.matrix == inputs {
+                slope[index % rows] += change * u[index / rows];
             }
         }
-        slope
     }
 }
