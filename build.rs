@@ -165,8 +165,8 @@ fn parse(xml: &str) -> (Description, Vec<Variable>) {
 fn check(variables: &[Variable]) {
     for (i, v) in variables.iter().enumerate() {
         assert!(
-            matches!(v.value_type.as_str(), "Real" | "Integer"),
-            "{}: only Real and Integer variables are supported (libcosim ignores Enumeration), found {}",
+            matches!(v.value_type.as_str(), "Real" | "Integer" | "String"),
+            "{}: only Real, Integer and String variables are supported (libcosim ignores Enumeration), found {}",
             v.name,
             v.value_type
         );
@@ -244,7 +244,7 @@ fn generate(guid: &str, model_identifier: &str, variables: &[Variable]) -> Strin
             v.name,
             v.value_reference,
             v.value_type,
-            float_literal(&v.start),
+            float_literal(&v.start.clone().filter(|_| v.value_type != "String")),
             float_literal(&v.min),
             float_literal(&v.max),
             v.unit.as_deref().unwrap_or(""),

@@ -1,9 +1,12 @@
-//! TireLag: the transient (lagged) forces of one tire, as an FMI 2.0 Co-Simulation FMU.
+//! TireLag: the transient (lagged) forces of one tire, as an FMI 2.0 FMU (Co-Simulation
+//! and Model Exchange).
 //!
 //! - [`physics`]: the tire-lag models as small linear state-space systems, stepped exactly.
 //!   Plain Rust, no FFI, usable and testable on its own.
 //! - [`fmi`]: the thin FMI 2.0 layer: C ABI, call-sequence state machine, value
 //!   references, logging and FMU state. It knows the physics only through [`physics::Tire`].
+//! - [`tire_data`]: tire property files (`.tir`) read and mapped to the parameters.
 
 pub mod fmi;
 pub mod physics;
+pub mod tire_data;

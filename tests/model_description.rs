@@ -147,6 +147,7 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
     wanted.extend(Parameter::ALL.map(Role::Parameter));
     wanted.push(Role::ModelChoice);
     wanted.push(Role::FrictionChoice);
+    wanted.push(Role::TireDataFile);
     wanted.extend((0..CONTINUOUS_STATES).map(Role::ContinuousState));
     wanted.extend((0..CONTINUOUS_STATES).map(Role::Derivative));
     assert_eq!(roles.len(), wanted.len());
@@ -158,7 +159,7 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
         let causality_fits = match info.variable.role() {
             Role::Input(_) => info.causality == Causality::Input,
             Role::Output(_) => info.causality == Causality::Output,
-            Role::Parameter(_) | Role::ModelChoice | Role::FrictionChoice => {
+            Role::Parameter(_) | Role::ModelChoice | Role::FrictionChoice | Role::TireDataFile => {
                 info.causality == Causality::Parameter
             }
             Role::ContinuousState(_) | Role::Derivative(_) => info.causality == Causality::Local,

@@ -201,6 +201,7 @@ unsafe fn instantiate(
     instance_name: fmi2String,
     fmu_type: fmi2Type,
     guid: fmi2String,
+    resource_location: fmi2String,
     functions: *const fmi2CallbackFunctions,
     logging_on: bool,
 ) -> Option<Box<Instance>> {
@@ -248,7 +249,11 @@ unsafe fn instantiate(
         CString::new(name).unwrap_or_default(),
         logging_on,
     );
-    match Instance::new(logger, interface) {
+    // The resources folder, for a relative tirFile; an importer may give none.
+    let resources = unsafe { text(resource_location, "fmuResourceLocation") }
+        .ok()
+        .and_then(super::instance::path_of_file_uri);
+    match Instance::new(logger, interface, resources) {
         Ok(instance) => Some(Box::new(instance)),
         Err(e) => report(e),
     }
@@ -259,13 +264,21 @@ pub extern "C" fn fmi2Instantiate(
     instanceName: fmi2String,
     fmuType: fmi2Type,
     fmuGUID: fmi2String,
-    _fmuResourceLocation: fmi2String,
+    fmuResourceLocation: fmi2String,
     functions: *const fmi2CallbackFunctions,
     _visible: fmi2Boolean,
     loggingOn: fmi2Boolean,
 ) -> fmi2Component {
-    let made =
-        catch_unwind(|| unsafe { instantiate(instanceName, fmuType, fmuGUID, functions, loggingOn != 0) });
+    let made = catch_unwind(|| unsafe {
+        instantiate(
+            instanceName,
+            fmuType,
+            fmuGUID,
+            fmuResourceLocation,
+            functions,
+            loggingOn != 0,
+        )
+    });
     match made {
         Ok(Some(instance)) => Box::into_raw(instance).cast(),
         _ => null_mut(),
@@ -406,10 +419,11 @@ pub extern "C" fn fmi2GetString(
     c: fmi2Component,
     vr: *const fmi2ValueReference,
     nvr: usize,
-    _value: *mut fmi2String,
+    value: *mut fmi2String,
 ) -> fmi2Status {
-    with_instance(c, "fmi2GetString", |instance| {
-        instance.no_variables_of_type(Call::GetValues, unsafe { array(vr, nvr, "vr")? })
+    let arguments = move || unsafe { format!("vr = {}", listed(vr, nvr)) };
+    with_instance_logged(c, "fmi2GetString", arguments, |instance| unsafe {
+        instance.get_string(array(vr, nvr, "vr")?, array_mut(value, nvr, "value")?)
     })
 }
 
@@ -456,10 +470,21 @@ pub extern "C" fn fmi2SetString(
     c: fmi2Component,
     vr: *const fmi2ValueReference,
     nvr: usize,
-    _value: *const fmi2String,
+    value: *const fmi2String,
 ) -> fmi2Status {
-    with_instance(c, "fmi2SetString", |instance| {
-        instance.no_variables_of_type(Call::SetValues, unsafe { array(vr, nvr, "vr")? })
+    let arguments = move || unsafe { format!("vr = {}", listed(vr, nvr)) };
+    with_instance_logged(c, "fmi2SetString", arguments, |instance| unsafe {
+        let pointers = array(value, nvr, "value")?;
+        let strings = pointers
+            .iter()
+            .map(|&p| {
+                // SAFETY: a non-null value is a NUL-terminated string, by the importer's promise.
+                (!p.is_null())
+                    .then(|| CStr::from_ptr(p))
+                    .ok_or_else(|| Rejection::error("a value is NULL"))
+            })
+            .collect::<CallResult<Vec<_>>>()?;
+        instance.set_string(array(vr, nvr, "vr")?, &strings)
     })
 }
 

@@ -6,8 +6,9 @@
 //! bytes), phase u8, model u8, friction law u8, time, start time, stop-time flag u8, stop
 //! time, the parameters, inputs and input rates (f64 each), state count u32 and states
 //! (f64 each), slider flag u8 and, if 1, the branch offsets from their element's state (f64, by direction and
-//! branch) and sliding flags (u8, by group and branch), then an FNV-1a 64 checksum of
-//! everything before it.
+//! branch) and sliding flags (u8, by group and branch), `tirFile` (u32 length + UTF-8
+//! bytes) and which parameters the importer set (u8 each, by parameter), then an FNV-1a 64
+//! checksum of everything before it.
 
 use crate::physics::friction::{Direction, Group, MAX_BRANCHES, SliderState};
 use crate::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters};
@@ -16,7 +17,7 @@ use super::state_machine::Phase;
 use super::variables::GUID;
 
 const MAGIC: &[u8; 8] = b"TIRELAG\0";
-const FORMAT_VERSION: u32 = 2;
+const FORMAT_VERSION: u32 = 3;
 
 /// A complete copy of an instance's simulation state.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +32,10 @@ pub struct Snapshot {
     pub states: Vec<f64>,
     /// The friction sliders (none for the Unlimited law).
     pub sliders: Option<SliderState>,
+    /// `tirFile` as the importer set it.
+    pub tire_data_file: String,
+    /// By parameter: whether the importer set it.
+    pub set_by_importer: [bool; Parameter::COUNT],
 }
 
 fn checksum(bytes: &[u8]) -> u64 {
@@ -70,6 +75,9 @@ impl Snapshot {
             }
             out.extend(sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
         }
+        out.extend_from_slice(&(self.tire_data_file.len() as u32).to_le_bytes());
+        out.extend_from_slice(self.tire_data_file.as_bytes());
+        out.extend(self.set_by_importer.iter().map(|&s| u8::from(s)));
         let sum = checksum(&out);
         out.extend_from_slice(&sum.to_le_bytes());
         out
@@ -157,6 +165,21 @@ impl Snapshot {
                 ));
             }
         };
+        let file_len = r.u32()? as usize;
+        let tire_data_file = std::str::from_utf8(r.take(file_len)?)
+            .map_err(|_| "tirFile in the FMU state is not UTF-8".to_owned())?
+            .to_owned();
+        if tire_data_file.contains('\0') {
+            return Err("tirFile in the FMU state holds a NUL byte".into());
+        }
+        let mut set_by_importer = [false; Parameter::COUNT];
+        for flag in &mut set_by_importer {
+            *flag = match r.u8()? {
+                0 => false,
+                1 => true,
+                other => return Err(format!("parameter flag {other} is neither 0 nor 1")),
+            };
+        }
         if r.at != body.len() {
             return Err(format!(
                 "{} unexpected bytes at the end of the FMU state",
@@ -183,6 +206,8 @@ impl Snapshot {
             input_rates,
             states,
             sliders,
+            tire_data_file,
+            set_by_importer,
         })
     }
 }
@@ -231,6 +256,8 @@ mod tests {
                 offsets: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
                 sliding: [[true, false, false, true], [false; 4]],
             }),
+            tire_data_file: "tires/front ü.tir".into(),
+            set_by_importer: std::array::from_fn(|k| k % 3 == 0),
         }
     }
 

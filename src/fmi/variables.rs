@@ -30,6 +30,8 @@ pub enum ValueType {
     /// Selectors: Integer rather than Enumeration, so that every importer can set them
     /// (OSP libcosim ignores Enumeration variables).
     Integer,
+    /// The tire property file's path.
+    String,
 }
 
 /// A ScalarVariable's attributes as declared in the model description.
@@ -57,6 +59,8 @@ pub enum Role {
     ModelChoice,
     /// The `friction` selector (declared type TireFriction).
     FrictionChoice,
+    /// `tirFile`: the tire property file (SPEC 10).
+    TireDataFile,
     /// Entry k of the continuous state vector (Model Exchange).
     ContinuousState(usize),
     /// The derivative of entry k of the continuous state vector.
@@ -122,6 +126,7 @@ impl Variable {
             V::MuY => Role::Parameter(Parameter::LateralFriction),
             V::MuLoadSensitivity => Role::Parameter(Parameter::FrictionLoadSensitivity),
             V::BoreRadius => Role::Parameter(Parameter::BoreRadius),
+            V::TirFile => Role::TireDataFile,
             // The continuous states and their derivatives, by their place in the state
             // vector (the model description's ModelStructure/Derivatives).
             _ => self.continuous_role(),

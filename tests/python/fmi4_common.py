@@ -123,8 +123,9 @@ def module_fmu(tmp_path_factory, name):
 
 
 def start_values(md):
-    """Start value of every variable by name (None where there is none)."""
-    return {v.name: (None if v.start is None else float(v.start)) for v in md.modelVariables}
+    """Start value of every numeric variable by name (None where there is none)."""
+    return {v.name: (None if v.start is None else float(v.start))
+            for v in md.modelVariables if v.type != "String"}
 
 
 @contextlib.contextmanager

@@ -167,7 +167,7 @@ def test_no_other_variables(variables):
     states = {f"tireState{k}" for k in range(1, 7)}
     states |= {f"sliderOffset{d}{i}" for d in ("X", "Y", "Psi") for i in range(1, 5)}
     expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"tireModel", "friction"}
-    expected |= states | {f"der({s})" for s in states}
+    expected |= states | {f"der({s})" for s in states} | {"tirFile"}
     assert set(variables) == expected
     vrs = [v.valueReference for v in variables.values()]
     assert len(vrs) == len(set(vrs)), "value references must be unique"

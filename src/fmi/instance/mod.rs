@@ -1,8 +1,11 @@
 //! One FMU instance: the call sequence, variable access and FMU state around a [`Tire`].
 //! Everything here is safe Rust; `exports` turns C pointers into the slices used here.
-//! [`model_exchange`]: the calls of Model Exchange.
+//! [`model_exchange`]: the calls of Model Exchange; [`tire_data`]: the tire property file.
 
 mod model_exchange;
+mod tire_data;
+
+pub use tire_data::path_of_file_uri;
 
 use crate::physics::tire::hybrid::{CONTINUOUS_STATES, ContinuousStates, GUARDS};
 use crate::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
@@ -57,6 +60,12 @@ pub struct Instance {
     time: f64,
     start_time: f64,
     stop_time: Option<f64>,
+    /// `tirFile`, as the importer set it (read at the end of initialisation).
+    tire_data_file: std::ffi::CString,
+    /// The FMU's resources folder (from fmi2Instantiate), for a relative `tirFile`.
+    resources: Option<std::path::PathBuf>,
+    /// By [`Parameter`]: whether the importer set it (a property file then leaves it).
+    set_by_importer: [bool; Parameter::COUNT],
 }
 
 /// The parameters the model description declares as start values.
@@ -74,7 +83,11 @@ pub fn start_parameters() -> Result<Parameters, String> {
                 parameters.friction = FrictionLaw::from_value(start as i64)
                     .ok_or(format!("friction start value {start} is not a TireFriction"))?
             }
-            Role::Input(_) | Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) => {}
+            Role::Input(_)
+            | Role::Output(_)
+            | Role::ContinuousState(_)
+            | Role::Derivative(_)
+            | Role::TireDataFile => {}
         }
     }
     Ok(parameters)
@@ -125,7 +138,11 @@ fn same_length(what: &str, a: usize, b: usize) -> CallResult {
 }
 
 impl Instance {
-    pub fn new(logger: Logger, interface: Interface) -> Result<Self, String> {
+    pub fn new(
+        logger: Logger,
+        interface: Interface,
+        resources: Option<std::path::PathBuf>,
+    ) -> Result<Self, String> {
         let parameters = start_parameters()?;
         let tire = start_tire(&parameters)?;
         Ok(Self {
@@ -139,6 +156,9 @@ impl Instance {
             time: 0.0,
             start_time: 0.0,
             stop_time: None,
+            tire_data_file: std::ffi::CString::default(),
+            resources,
+            set_by_importer: [false; Parameter::COUNT],
         })
     }
 
@@ -205,6 +225,7 @@ impl Instance {
     /// Into step mode (Co-Simulation) or event mode (Model Exchange: the importer then
     /// asks for the initial modes with fmi2NewDiscreteStates).
     pub fn exit_initialization_mode(&mut self) -> CallResult {
+        self.apply_tire_data()?;
         self.sync_tire()?;
         self.phase = match self.interface {
             Interface::CoSimulation => Phase::StepComplete,
@@ -229,6 +250,8 @@ impl Instance {
         self.time = 0.0;
         self.start_time = 0.0;
         self.stop_time = None;
+        self.tire_data_file = std::ffi::CString::default();
+        self.set_by_importer = [false; Parameter::COUNT];
         Ok(())
     }
 
@@ -279,8 +302,8 @@ impl Instance {
                 self.sync_tire()?;
                 self.tire.continuous_rates()[k]
             }
-            Role::ModelChoice | Role::FrictionChoice => {
-                unreachable!("lookup checked the type: the selectors are Integers")
+            Role::ModelChoice | Role::FrictionChoice | Role::TireDataFile => {
+                unreachable!("lookup checked the type: the selectors are Integers, tirFile a String")
             }
         })
     }
@@ -393,7 +416,11 @@ impl Instance {
             Role::Parameter(p) => self.parameters.get(p),
             Role::ModelChoice => self.parameters.model as i32 as f64,
             Role::FrictionChoice => self.parameters.friction as i32 as f64,
-            Role::Input(_) | Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) => f64::NAN,
+            Role::Input(_)
+            | Role::Output(_)
+            | Role::ContinuousState(_)
+            | Role::Derivative(_)
+            | Role::TireDataFile => f64::NAN,
         }
     }
 
@@ -411,6 +438,7 @@ impl Instance {
             Role::Parameter(p) => {
                 self.parameters.set(p, value).expect("checked by check_settable");
                 self.parameters_changed = true;
+                self.set_by_importer[p as usize] = true;
             }
             Role::ModelChoice => {
                 self.parameters.model = ModelKind::from_value(value as i64).expect("checked");
@@ -420,8 +448,8 @@ impl Instance {
                 self.parameters.friction = FrictionLaw::from_value(value as i64).expect("checked");
                 self.parameters_changed = true;
             }
-            Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) => {
-                unreachable!("outputs and locals are refused by check_settable")
+            Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) | Role::TireDataFile => {
+                unreachable!("outputs and locals are refused by check_settable, tirFile by its type")
             }
         }
     }
@@ -519,7 +547,7 @@ impl Instance {
         self.set_values(ValueType::Integer, value_references, values)
     }
 
-    /// fmi2Get/SetBoolean and fmi2Get/SetString: this FMU has no such variables.
+    /// fmi2Get/SetBoolean: this FMU has no such variables.
     pub fn no_variables_of_type(&self, call: Call, value_references: &[u32]) -> CallResult {
         self.require(call)?;
         match value_references.first() {
@@ -718,6 +746,8 @@ impl Instance {
             input_rates: Input::ALL.map(|i| self.tire.input_rate(i)),
             states: self.states_of_selected_model(),
             sliders: self.sliders_of_selected_law(),
+            tire_data_file: self.tire_data_file.to_string_lossy().into_owned(),
+            set_by_importer: self.set_by_importer,
         })
     }
 
@@ -759,9 +789,13 @@ impl Instance {
             tire.set_input(input, snapshot.inputs[i]);
             tire.set_input_rate(input, snapshot.input_rates[i]);
         }
+        let tire_data_file = std::ffi::CString::new(snapshot.tire_data_file.as_str())
+            .map_err(|_| Rejection::error("tirFile in the FMU state holds a NUL byte"))?;
         self.tire = tire;
         self.parameters = snapshot.parameters.clone();
         self.parameters_changed = true;
+        self.tire_data_file = tire_data_file;
+        self.set_by_importer = snapshot.set_by_importer;
         // The state carries its load explicitly.
         self.normal_load_set = true;
         self.phase = snapshot.phase;
