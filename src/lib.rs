@@ -6,7 +6,9 @@
 //! - [`fmi`]: the thin FMI 2.0 layer: C ABI, call-sequence state machine, value
 //!   references, logging and FMU state. It knows the physics only through [`physics::Tire`].
 //! - [`tire_data`]: tire property files (`.tir`) read and mapped to the parameters.
+//! - [`fitting`]: parameters fitted to measurements by the exact step.
 
+pub mod fitting;
 pub mod fmi;
 pub mod physics;
 pub mod tire_data;

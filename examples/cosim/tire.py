@@ -68,8 +68,9 @@ class FMUFile:
         unknown = set(overrides) - set(self.parameter_names)
         if unknown:
             raise KeyError(f"not a TireLag parameter: {sorted(unknown)}")
+        # The Real ones: not the Integer selectors, not the String tirFile.
         values = {name: self.start_values[name] for name in self.parameter_names
-                  if name not in ("tireModel", "friction")}   # the Integer selectors
+                  if name in self.start_values and name not in ("tireModel", "friction")}
         values.update({k: float(v) for k, v in overrides.items()})
         return values
 
@@ -131,11 +132,15 @@ class TireLag:
     friction:    "Unlimited", "Coulomb" or "Brush" (SPEC 4c), or None for the FMU's default.
                  The linear analyses of the examples ask for "Unlimited", which an FMU
                  without a friction limit already is.
+    tir_file:    a tire property file (.tir) for the FMU's tirFile, or None; `parameters`
+                 set explicitly keep their values, and ``self.parameters`` holds the values
+                 in use after initialisation.
     """
 
     def __init__(self, fmu: FMUFile, model: str, parameters: Mapping[str, float] | None = None,
                  name: str = "tire", inputs: Sequence[str] = ("vy",),
-                 outputs: Sequence[str] = ("Fy", "Mz", "deflY"), friction: str | None = None):
+                 outputs: Sequence[str] = ("Fy", "Mz", "deflY"), friction: str | None = None,
+                 tir_file: str | os.PathLike | None = None):
         from fmpy.fmi2 import FMU2Slave, fmi2FMUstate
 
         if model not in TIRE_MODELS:
@@ -172,8 +177,13 @@ class TireLag:
         if parameters:
             names = list(parameters)
             self._slave.setReal([vr[n] for n in names], [float(parameters[n]) for n in names])
+        if tir_file is not None:
+            self._slave.setString([vr["tirFile"]], [os.fspath(tir_file)])
         self._slave.enterInitializationMode()
         self._slave.exitInitializationMode()
+        if tir_file is not None:
+            names = list(self.parameters)
+            self.parameters = dict(zip(names, self._slave.getReal([vr[n] for n in names])))
         self.time = 0.0
         self._saved_time = 0.0
         self._state = fmi2FMUstate()     # one reusable FMU state slot (fmi2GetFMUstate overwrites it)

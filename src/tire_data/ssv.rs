@@ -16,6 +16,11 @@ fn escaped(text: &str) -> String {
 
 /// The values as an SSP parameter set named `name`, each with its source as a description.
 pub fn parameter_set(name: &str, values: &[Mapped]) -> String {
+    parameter_set_with_selectors(name, &[], values)
+}
+
+/// [`parameter_set`] with Integer parameters first (the selectors `tireModel`, `friction`).
+pub fn parameter_set_with_selectors(name: &str, integers: &[(&str, i64)], values: &[Mapped]) -> String {
     let mut out = String::new();
     out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     let _ = writeln!(
@@ -26,6 +31,13 @@ pub fn parameter_set(name: &str, values: &[Mapped]) -> String {
         escaped(name)
     );
     out.push_str("  <ssv:Parameters>\n");
+    for (name, value) in integers {
+        let _ = writeln!(
+            out,
+            "    <ssv:Parameter name=\"{}\">\n      <ssv:Integer value=\"{value}\"/>\n    </ssv:Parameter>",
+            escaped(name)
+        );
+    }
     for mapped in values {
         let _ = writeln!(
             out,
