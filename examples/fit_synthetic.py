@@ -139,7 +139,7 @@ def main():
             inside = "in" if low <= truth[parameter] <= high else "OUT"
             print(f"{name:<18} {parameter:<14} {truth[parameter]:>12.6g} {estimate['value']:>12.6g}   "
                   f"[{low:.6g}, {high:.6g}] {inside}")
-        print(f"{'':<18} {result['simulations']} simulations in {result['seconds']:.2f} s; "
+        print(f"{'':<18} {result['simulations']} simulations in {1e3 * result['seconds']:.1f} ms; "
               f"{Path(args.out) / name / 'fit.png'}")
 
 

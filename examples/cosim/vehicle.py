@@ -155,8 +155,13 @@ SNOWBLOWER_VARIANTS = {
 }
 
 
+# The parameters a tire property file maps (SPEC 10).
+MAPPED_BY_TIR_FILE = ("Fz0", "Calpha", "calphaLoadPeak", "Ckappa", "muX", "muY", "muLoadSensitivity",
+                      "sigmaY", "sigmaX", "trail", "Re")
+
+
 def snowblower(fmu, tire_model: str, speed: float, tire_parameters: Mapping[str, float] | None = None,
-               contact_yaw: bool | None = None) -> Bicycle:
+               contact_yaw: bool | None = None, tir_file=None) -> Bicycle:
     """Koo & Tan's snowblower as a Bicycle on TireLag instances (one per axle).
 
     tire_model: "DDT" (Koo & Tan's improved model), "RLT" (their bicycle model with RLT)
@@ -164,10 +169,15 @@ def snowblower(fmu, tire_model: str, speed: float, tire_parameters: Mapping[str,
     tire_parameters: overrides of SNOWBLOWER_TIRE (e.g. {"sigmaY": 0.8}).
     contact_yaw: the k1, c1 body-to-contact-patch spring; by default only with DDT, as in
     the paper (its RLT and plain models have none).
+    tir_file: a tire property file for the FMU's tirFile: the values it maps come from it
+    (unless tire_parameters sets them), the others from SNOWBLOWER_TIRE.
     """
     from .tire import SteadyStateTire, TireLag
 
     params = dict(SNOWBLOWER_TIRE, **(tire_parameters or {}))
+    if tir_file is not None:
+        params = {k: v for k, v in params.items()
+                  if k not in MAPPED_BY_TIR_FILE or k in (tire_parameters or {})}
     if contact_yaw is None:
         contact_yaw = tire_model == "DDT"
     outputs = ("Fy", "Mz", "deflY")
@@ -179,8 +189,8 @@ def snowblower(fmu, tire_model: str, speed: float, tire_parameters: Mapping[str,
     else:
         # a linear analysis, as in the paper: no friction limit
         front = TireLag(fmu, tire_model, params, name="front", inputs=("vy", "steerRate"), outputs=outputs,
-                        friction="Unlimited")
+                        friction="Unlimited", tir_file=tir_file)
         rear = TireLag(fmu, tire_model, params, name="rear", inputs=("vy",), outputs=outputs,
-                       friction="Unlimited")
+                       friction="Unlimited", tir_file=tir_file)
     return Bicycle(SNOWBLOWER_BODY, speed, front, rear,
                    SNOWBLOWER_CONTACT_YAW if contact_yaw else None)

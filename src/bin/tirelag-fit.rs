@@ -164,14 +164,14 @@ fn run() -> Result<(), String> {
         args.data.display()
     );
     let clock = Instant::now();
-    let mut progress = |p: fitting::least_squares::Progress| {
+    let mut progress = |pass: usize, p: fitting::least_squares::Progress| {
         let values: Vec<String> = free
             .iter()
             .zip(p.parameters)
             .map(|(f, v)| format!("{} = {v:.6}", f.parameter.name()))
             .collect();
         eprintln!(
-            "  step {:>3}  sum of squares {:.6e}  {}",
+            "  pass {pass} step {:>3}  sum of squares {:.6e}  {}",
             p.iteration,
             p.sum_of_squares,
             values.join("  ")
@@ -180,9 +180,10 @@ fn run() -> Result<(), String> {
     let fit = fitting::fit(&start, &free, &measurements, &mut progress)?;
     let seconds = clock.elapsed().as_secs_f64();
     println!(
-        "{} simulations of {} samples in {seconds:.2} s ({} steps)",
+        "{} simulations of {} samples in {:.1} ms ({} steps)",
         fit.simulations,
         measurements.time.len(),
+        1e3 * seconds,
         fit.iterations
     );
     println!(

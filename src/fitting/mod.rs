@@ -65,6 +65,7 @@ pub struct Fit {
     pub residual_rms: Vec<f64>,
     /// By measured output: the fitted run at the sample times.
     pub fitted: Vec<Vec<f64>>,
+    /// Steps of the least-squares solve, both passes.
     pub iterations: usize,
     pub simulations: usize,
 }
@@ -93,12 +94,13 @@ pub fn simulate(parameters: &Parameters, measurements: &Measurements) -> Result<
     Ok(outputs)
 }
 
-/// Fits the free parameters of `start` to `measurements`; `progress` sees each step.
+/// Fits the free parameters of `start` to `measurements`; `progress` sees each step, with
+/// its pass (1: outputs weighted by their spread; 2: by their residuals' scatter).
 pub fn fit(
     start: &Parameters,
     free: &[Free],
     measurements: &Measurements,
-    progress: &mut dyn FnMut(Progress),
+    progress: &mut dyn FnMut(usize, Progress),
 ) -> Result<Fit, String> {
     let with = |values: &[f64]| -> Option<Parameters> {
         let mut p = start.clone();
@@ -117,8 +119,9 @@ pub fn fit(
     let mut scales: Vec<f64> = measurements.outputs.iter().map(|(_, s)| spread(s)).collect();
     let mut values: Vec<f64> = free.iter().map(|f| start.get(f.parameter)).collect();
     let mut simulations = 0;
+    let mut iterations = 0;
     let mut solution = None;
-    for _pass in 0..2 {
+    for pass in 1..=2 {
         let mut residuals = |values: &[f64]| -> Option<Vec<f64>> {
             simulations += 1;
             let outputs = simulate(&with(values)?, measurements).ok()?;
@@ -135,8 +138,9 @@ pub fn fit(
             lower: free.iter().map(|f| f.lower).collect(),
             upper: free.iter().map(|f| f.upper).collect(),
         };
-        let found = least_squares::solve(&mut problem, progress)
+        let found = least_squares::solve(&mut problem, &mut |p| progress(pass, p))
             .ok_or("the start cannot be simulated: check the parameters")?;
+        iterations += found.iterations;
         values = found.parameters.clone();
         // The scatter of each output's residuals, in its unit.
         let per_output = measurements.time.len();
@@ -173,7 +177,7 @@ pub fn fit(
         parameters,
         residual_rms,
         fitted,
-        iterations: solution.iterations,
+        iterations,
         simulations,
     })
 }

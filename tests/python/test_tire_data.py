@@ -276,3 +276,21 @@ def test_the_mapping_command_prints_the_sources_and_writes_a_parameter_set(tmp_p
     bad = subprocess.run([str(REPO / "scripts" / "tir"), str(tmp_path / "none.tir")],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "none.tir" in bad.stderr
+
+
+def test_the_vehicle_example_runs_on_the_property_file(tmp_path, fmu_path):
+    """examples/tire_from_file.py: the snowblower's step steer on RLT tires from the
+    project's PAC2002 file equals the run on tires set parameter by parameter (to 1e-12 of
+    the gain) once the file's pneumatic trail is set to the paper's 0 by the importer; with
+    the file's trail the self-aligning moments add understeer (a lower steady gain)."""
+    import sys
+
+    sys.path.insert(0, str(REPO / "examples"))
+    import tire_from_file as example
+
+    res = example.main(["--fmu", fmu_path, "--quick", "--out-dir", str(tmp_path)])
+    base = res["step"]["parameters"][1]
+    assert np.max(np.abs(res["step"]["file, trail 0"][1] - base)) <= 1e-12 * np.max(np.abs(base))
+    assert res["step"]["file"][1][-1] < base[-1] - 1e-4
+    assert res["tires"]["file"]["trail"] == pytest.approx(0.05, rel=1e-12)
+    assert (tmp_path / "tire_from_file.png").stat().st_size > 0
