@@ -46,6 +46,7 @@ FMU2CountingModel: the input jumps plus the state events) and asserts an upper b
 from __future__ import annotations
 
 import ctypes
+import gc
 import math
 import subprocess
 import sys
@@ -616,6 +617,11 @@ class CoupledWheel:
         return self._advance(until, sample_every)
 
     def close(self):
+        # The solver first, while the FMU it calls back is alive: it and this object
+        # refer to each other, and left to the garbage collector CVode's memory would be
+        # freed at some later point, after the FMU.
+        self.solver = None
+        gc.collect()
         self.fmu.terminate()
         self.fmu.freeInstance()
 
