@@ -35,6 +35,13 @@ VR_NAME = {vr: n for n, vr in {**INPUT_VR, **OUTPUT_VR, **PARAMETER_VR, **FRICTI
 
 FMI2_OK, FMI2_WARNING, FMI2_DISCARD, FMI2_ERROR = 0, 1, 2, 3
 
+# fmpy's logger proxy (fmpy.logging.addLoggerProxy) keeps the Python logger it was last
+# given in one global of its native library, and every proxied callback table, fmpy's
+# defaultCallbacks included, forwards there. A logger freed while it is that global
+# would be called later by any instance that logs through fmpy's defaults: each one is
+# kept for the life of the process.
+_PROXIED_LOGGERS = []
+
 
 class LogCapture:
     """fmi2CallbackFunctions whose logger records (status, category, message).
@@ -65,6 +72,7 @@ class LogCapture:
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(fmpy.free)
         if formatting:
             addLoggerProxy(ctypes.byref(cb))
+            _PROXIED_LOGGERS.append(cb.logger)
         self.callbacks = cb
 
     def clear(self):
