@@ -6,9 +6,10 @@
 //! - **Continuous states**: the model's states in [`MAX_STATES`] slots (those a model
 //!   lacks stay zero, with rate zero), then the offset `b_i - U` of branch `i` of each
 //!   direction's element ([`SliderState::offsets`]), direction by direction.
-//! - **Modes** (discrete states): which groups slide, and whether the wheel is on the
-//!   ground. Between events they hold, and the rates are smooth in the states, time and
-//!   inputs; [`Tire::update_modes`] changes them.
+//! - **Modes** (discrete states): which groups slide. Between events they hold, and the
+//!   rates are smooth in the states, time and inputs; [`Tire::update_modes`] changes them.
+//!   Whether the wheel is on the ground follows the load as it is set; the load's guard
+//!   stops the importer's solver where it crosses zero.
 //! - **Guards** ([`Tire::guards`]): one per group and branch, positive while the group
 //!   keeps its mode (a sticking group inside its limit; a sliding one whose motion keeps
 //!   its force on the limit) and crossing zero where it changes, half the event tolerance
