@@ -260,6 +260,9 @@ pub struct ContactSystem {
     /// The operating point the map was made at, and whether `current` is still there.
     map_point: OperatingPoint,
     current_at_map_point: bool,
+    /// Whether `current`'s output entries (C, D) are at `current_point` too: a caller that
+    /// needs only the dynamics leaves them ([`ContactSystem::dynamics_at`]).
+    outputs_current: bool,
 }
 
 impl ContactSystem {
@@ -280,6 +283,7 @@ impl ContactSystem {
             map,
             map_point: current_point,
             current_at_map_point: true,
+            outputs_current: true,
         }
     }
 
@@ -299,6 +303,22 @@ impl ContactSystem {
             self.affine.evaluate(&point, &mut self.current);
             self.current_point = point;
             self.current_at_map_point = false;
+        } else if !self.outputs_current {
+            self.affine.evaluate_outputs(&point, &mut self.current);
+        }
+        self.outputs_current = true;
+        &self.current
+    }
+
+    /// The system at `point` for its state rates only (A, B): the output entries may be
+    /// left at an earlier point, until [`ContactSystem::at`] asks for them.
+    #[inline]
+    pub fn dynamics_at(&mut self, point: OperatingPoint) -> &StateSpace {
+        if !point.same_as(&self.current_point) {
+            self.affine.evaluate_dynamics(&point, &mut self.current);
+            self.current_point = point;
+            self.current_at_map_point = false;
+            self.outputs_current = false;
         }
         &self.current
     }
@@ -307,6 +327,9 @@ impl ContactSystem {
     pub fn make_step_map(&mut self, point: OperatingPoint, h: f64) -> &StepMap {
         if point.same_as(&self.current_point) {
             self.map.make_blocks(&self.current, &self.blocks, h);
+            if !self.outputs_current {
+                self.affine.evaluate_outputs(&point, &mut self.current);
+            }
         } else {
             // The output entries after the map: they do not feed it, so they are written
             // while its series (chains of dependent multiplications) are under way.
@@ -317,6 +340,7 @@ impl ContactSystem {
         }
         self.map_point = point;
         self.current_at_map_point = true;
+        self.outputs_current = true;
         &self.map
     }
 
@@ -324,10 +348,11 @@ impl ContactSystem {
     /// blocks it was made for.
     #[inline]
     pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap, &Blocks) {
-        if !self.current_at_map_point {
+        if !self.current_at_map_point || !self.outputs_current {
             self.affine.evaluate(&self.map_point, &mut self.current);
             self.current_point = self.map_point;
             self.current_at_map_point = true;
+            self.outputs_current = true;
         }
         (&self.current, &self.map, &self.blocks)
     }

@@ -166,7 +166,7 @@ impl Tire {
         // where they are kept.
         let system = {
             let point = self.operating_point(self.input(Input::Vx), load);
-            self.rolling.at(point)
+            self.rolling.dynamics_at(point)
         };
         let e = &mut self.hybrid;
         e.rates = [0.0; CONTINUOUS_STATES];
