@@ -167,10 +167,10 @@ mod tests {
     #[test]
     fn file_uris_become_paths() {
         for (uri, path) in [
-            ("file:///tmp/a%20b/tire.tir", Some("/tmp/a b/tire.tir")),
-            ("file:/tmp/tire.tir", Some("/tmp/tire.tir")),
-            ("file://localhost/tmp/tire.tir", Some("/tmp/tire.tir")),
-            ("file://server/tmp/tire.tir", None),
+            ("file:///tires/a%20b/tire.tir", Some("/tires/a b/tire.tir")),
+            ("file:/tires/tire.tir", Some("/tires/tire.tir")),
+            ("file://localhost/tires/tire.tir", Some("/tires/tire.tir")),
+            ("file://server/tires/tire.tir", None),
             ("http://example.com/tire.tir", None),
         ] {
             assert_eq!(path_of_file_uri(uri), path.map(PathBuf::from), "{uri}");
