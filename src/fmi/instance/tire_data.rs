@@ -153,11 +153,6 @@ impl Instance {
         }
         Ok(())
     }
-
-    /// `tirFile` as the importer set it.
-    pub fn tire_data_file(&self) -> &CStr {
-        &self.tire_data_file
-    }
 }
 
 #[cfg(test)]

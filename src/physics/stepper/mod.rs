@@ -299,14 +299,11 @@ impl ContactSystem {
     /// point changed.
     #[inline]
     pub fn at(&mut self, point: OperatingPoint) -> &StateSpace {
-        if !point.same_as(&self.current_point) {
-            self.affine.evaluate(&point, &mut self.current);
-            self.current_point = point;
-            self.current_at_map_point = false;
-        } else if !self.outputs_current {
+        self.dynamics_at(point);
+        if !self.outputs_current {
             self.affine.evaluate_outputs(&point, &mut self.current);
+            self.outputs_current = true;
         }
-        self.outputs_current = true;
         &self.current
     }
 

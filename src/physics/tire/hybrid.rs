@@ -18,7 +18,7 @@
 
 use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire};
 use crate::physics::friction::{
-    Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState,
+    Direction, EVENT_TOLERANCE, Events, Friction, Group, Limits, MAX_BRANCHES, SliderState,
 };
 use crate::physics::parameters::Parameter;
 use crate::physics::signals::{Input, OutputVector};
@@ -50,6 +50,23 @@ impl Default for Evaluation {
             rates: [0.0; CONTINUOUS_STATES],
             guards: [NO_GUARD; GUARDS],
         }
+    }
+}
+
+impl Evaluation {
+    /// The guards of the groups' event values (`-inf` where there is no such group, or no
+    /// events at all off the ground) and of the load; the evaluation is then complete.
+    fn write_guards(&mut self, events: Option<&Events>, load: f64) {
+        self.guards = [NO_GUARD; GUARDS];
+        for (g, group) in events.into_iter().flatten().enumerate() {
+            for (i, &event) in group.iter().enumerate() {
+                if event > f64::NEG_INFINITY {
+                    self.guards[g * MAX_BRANCHES + i] = guard(event);
+                }
+            }
+        }
+        self.guards[GUARDS - 1] = load;
+        self.valid = true;
     }
 }
 
@@ -151,9 +168,7 @@ impl Tire {
                     }
                 }
             }
-            e.guards = [NO_GUARD; GUARDS];
-            e.guards[GUARDS - 1] = load;
-            e.valid = true;
+            e.write_guards(None, load);
             return;
         }
         let limits = self.friction.as_ref().map(|_| self.limits());
@@ -171,22 +186,9 @@ impl Tire {
         let e = &mut self.hybrid;
         e.rates = [0.0; CONTINUOUS_STATES];
         system.write_state_rates(&x, &u, &mut e.rates[..MAX_STATES]);
-        e.guards = [NO_GUARD; GUARDS];
-        if let (Some(friction), Some(limits)) = (&self.friction, &limits) {
-            let events = friction.together_events(limits, &x, &e.rates[..MAX_STATES]);
-            for group in friction.groups() {
-                let g = group as usize;
-                let branches = friction.branches.len();
-                for (slot, &event) in e.guards[g * MAX_BRANCHES..]
-                    .iter_mut()
-                    .zip(&events[g][..branches])
-                {
-                    *slot = guard(event);
-                }
-            }
-        }
-        e.guards[GUARDS - 1] = load;
-        e.valid = true;
+        let events = (self.friction.as_ref().zip(limits.as_ref()))
+            .map(|(friction, limits)| friction.together_events(limits, &x, &e.rates[..MAX_STATES]));
+        e.write_guards(events.as_ref(), load);
     }
 
     /// [`Tire::evaluate`] where a branch is apart from its element or slides: the law of
@@ -205,16 +207,7 @@ impl Tire {
         for (d, offsets) in offset_rates.offsets.iter().enumerate() {
             e.rates[offset_entry(d, 0)..offset_entry(d, MAX_BRANCHES)].copy_from_slice(offsets);
         }
-        e.guards = [NO_GUARD; GUARDS];
-        for (g, group) in events.iter().enumerate() {
-            for (i, &event) in group.iter().enumerate() {
-                if event > f64::NEG_INFINITY {
-                    e.guards[g * MAX_BRANCHES + i] = guard(event);
-                }
-            }
-        }
-        e.guards[GUARDS - 1] = load;
-        e.valid = true;
+        e.write_guards(Some(&events), load);
     }
 
     /// At an event: each group's mode decided anew from the states and inputs (a group on

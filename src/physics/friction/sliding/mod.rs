@@ -315,7 +315,21 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// Rates of every entry, and the groups' event values.
+    #[inline]
     fn rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
+        self.rates_adjusted(t, z, modes, |_, _, _, _| {})
+    }
+
+    /// [`SlidingStep::rates`], each slot's rates then passed to `adjust` with its group
+    /// input and mode (an empty `adjust` compiles away).
+    #[inline]
+    fn rates_adjusted(
+        &self,
+        t: f64,
+        z: &Vector,
+        modes: &Modes,
+        mut adjust: impl FnMut(&Slot, &GroupInput, bool, &mut Vector),
+    ) -> (Vector, Events) {
         let layout = &self.layout;
         let x = layout.model_states(z);
         let u = self.inputs_at(t);
@@ -327,11 +341,13 @@ impl<'a> SlidingStep<'a> {
         let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
         for slot in self.slots() {
             let input = self.slot_input(slot, &x, &x_rates, z);
-            let out: GroupOutput = input.evaluate(modes[slot.group][slot.branch]);
+            let sliding = modes[slot.group][slot.branch];
+            let out: GroupOutput = input.evaluate(sliding);
             for m in input.members() {
                 rates[slot.entries[m]] = out.rate[m];
             }
             events[slot.group][slot.branch] = out.event;
+            adjust(slot, &input, sliding, &mut rates);
         }
         (rates, events)
     }
@@ -635,25 +651,34 @@ impl<'a> SlidingStep<'a> {
     /// while the slider moves outward (a group inside its limit that nothing moves keeps
     /// its force, as it would sticking).
     pub fn mode_rates(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState, Events) {
+        self.unpacked_rates(x, sliders, true)
+    }
+
+    /// The rates of the model's states and of the branch offsets, and the event values,
+    /// at these states in their modes; with `follow_limit`, a sliding spring group is
+    /// drawn back to its ellipse as [`SlidingStep::mode_rates`] says.
+    fn unpacked_rates(
+        &self,
+        x: &StateVector,
+        sliders: &SliderState,
+        follow_limit: bool,
+    ) -> (StateVector, SliderState, Events) {
         let z = self.layout.pack(x, sliders);
-        let (mut rates, events) = self.rates(0.0, &z, &sliders.sliding);
-        let states = self.layout.model_states(&z);
-        let x_rates = self.system.state_rates(&states, &self.inputs);
-        for slot in self.slots() {
-            if !sliders.sliding[slot.group][slot.branch] || slot.input.damped() {
-                continue;
-            }
-            let input = self.slot_input(slot, &states, &x_rates, &z);
-            let force = input.spring_force();
-            let utilisation = input.utilisation(&force);
-            if utilisation > 1.0 || utilisation > 0.0 && input.outward_cosine(&force) > 0.0 {
-                let rate = input.sliding_rate().max(Self::RETURN_RATE);
-                let pull = rate * (1.0 - utilisation.sqrt().recip());
-                for m in input.members() {
-                    rates[slot.entries[m]] -= pull * z[slot.entries[m]];
+        let (rates, events) =
+            self.rates_adjusted(0.0, &z, &sliders.sliding, |slot, input, sliding, rates| {
+                if !(follow_limit && sliding) || input.damped() {
+                    return;
                 }
-            }
-        }
+                let force = input.spring_force();
+                let utilisation = input.utilisation(&force);
+                if utilisation > 1.0 || utilisation > 0.0 && input.outward_cosine(&force) > 0.0 {
+                    let rate = input.sliding_rate().max(Self::RETURN_RATE);
+                    let pull = rate * (1.0 - utilisation.sqrt().recip());
+                    for m in input.members() {
+                        rates[slot.entries[m]] -= pull * z[slot.entries[m]];
+                    }
+                }
+            });
         let mut offset_rates = SliderState::AT_REST;
         let x_rates = self.layout.unpack(&rates, &mut offset_rates);
         (x_rates, offset_rates, events)
@@ -667,10 +692,7 @@ impl<'a> SlidingStep<'a> {
     /// The rates of the model's states and of the branch offsets at these states (the
     /// state rates with the limits acting).
     pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
-        let z = self.layout.pack(x, sliders);
-        let (rates, _) = self.rates(0.0, &z, &sliders.sliding);
-        let mut offset_rates = SliderState::AT_REST;
-        let x_rates = self.layout.unpack(&rates, &mut offset_rates);
+        let (x_rates, offset_rates, _) = self.unpacked_rates(x, sliders, false);
         (x_rates, offset_rates)
     }
 }
