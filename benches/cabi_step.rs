@@ -63,12 +63,7 @@ fn pass(slave: &mut Slave, table: &[[f64; 5]], step: f64, outputs: &mut [f64; 9]
 type Setting = (&'static str, i32, &'static [(u32, f64)]);
 
 fn main() {
-    // `cargo test --benches` runs this without --bench: a short smoke pass then.
-    let (steps, passes) = if std::env::args().any(|a| a == "--bench") {
-        (20_000, 15)
-    } else {
-        (200, 1)
-    };
+    let (steps, passes) = support::bench_size();
     let fmu = support::load();
     let step = step_size();
     let tables = [true, false].map(|varying| support::yardstick_inputs(varying, steps, step));

@@ -53,12 +53,7 @@ fn pass(slave: &Slave, table: &[[f64; 5]], x: &mut [f64; STATES]) -> f64 {
 }
 
 fn main() {
-    // `cargo test --benches` runs this without --bench: a short smoke pass then.
-    let (steps, passes) = if std::env::args().any(|a| a == "--bench") {
-        (20_000, 15)
-    } else {
-        (200, 1)
-    };
+    let (steps, passes) = support::bench_size();
     let fmu = support::load();
     let tables = [true, false].map(|varying| support::yardstick_inputs(varying, steps, STEP));
     println!(

@@ -59,6 +59,16 @@ pub fn yardstick_inputs(varying: bool, steps: usize, step: f64) -> Vec<[f64; 5]>
         .collect()
 }
 
+/// (steps per pass, timed passes) of a benchmark: `cargo test --benches` runs it without
+/// --bench, and then a short smoke pass is enough.
+pub fn bench_size() -> (usize, usize) {
+    if std::env::args().any(|a| a == "--bench") {
+        (20_000, 15)
+    } else {
+        (200, 1)
+    }
+}
+
 /// The median of timings, and their smallest and largest: "median (min-max)".
 pub fn timing_cell(mut times: Vec<f64>) -> (f64, String) {
     times.sort_by(f64::total_cmp);
