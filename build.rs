@@ -1,6 +1,11 @@
 //! Reads `modelDescription/modelDescription.xml`, the one source of truth for the FMU's
-//! variables, and generates the Rust variable table (`variables.rs` in OUT_DIR).
-//! The FMI layer includes that file, so the XML and the code cannot disagree.
+//! variables, and generates from it the Rust variable table (`variables.rs` in OUT_DIR)
+//! and the FMI 3.0 model description (`fmi3/modelDescription.xml` in OUT_DIR, packed into
+//! `target/fmu/fmi3/TireLag.fmu`; [`fmi3_description`]). The FMI layer includes the
+//! table, so neither XML and the code can disagree.
+
+#[path = "build/fmi3_description.rs"]
+mod fmi3_description;
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -12,6 +17,10 @@ const MODEL_DESCRIPTION: &str = "modelDescription/modelDescription.xml";
 
 struct Variable {
     name: String,
+    description: Option<String>,
+    initial: Option<String>,
+    declared_type: Option<String>,
+    display_unit: Option<String>,
     value_reference: u32,
     causality: String,
     variability: String,
@@ -24,6 +33,21 @@ struct Variable {
     derivative: Option<usize>,
 }
 
+/// An Unknown of ModelStructure: a variable's index (1-based) and what it depends on.
+struct Unknown {
+    index: usize,
+    /// Indices (1-based) of the knowns; `None`: every known.
+    dependencies: Option<Vec<usize>>,
+    dependencies_kind: Option<String>,
+}
+
+/// An FMI 3.0 EnumerationType from the vendor annotation.
+struct EnumerationType {
+    name: String,
+    /// (name, value, description)
+    items: Vec<(String, i64, String)>,
+}
+
 /// What the model description says beyond its variables.
 struct Description {
     guid: String,
@@ -32,6 +56,17 @@ struct Description {
     /// ModelStructure/Derivatives: the index (1-based) of each state derivative, in the
     /// order of the continuous state vector.
     derivatives: Vec<usize>,
+    outputs: Vec<Unknown>,
+    initial_unknowns: Vec<Unknown>,
+    /// The root's attributes, and those of `<ModelExchange>` and `<CoSimulation>`.
+    root_attributes: Vec<(String, String)>,
+    interfaces: Vec<(String, Vec<(String, String)>)>,
+    /// SimpleType name -> description.
+    type_descriptions: Vec<(String, String)>,
+    /// The vendor annotation's FMI 3.0 additions: the enumerations' items and the value
+    /// references of the event-indicator variables, in the order of the indicators.
+    enumerations: Vec<EnumerationType>,
+    event_indicator_references: Vec<u32>,
 }
 
 fn attribute(element: &BytesStart, key: &str) -> Option<String> {
@@ -80,12 +115,50 @@ fn float_literal(text: &Option<String>) -> String {
     }
 }
 
+fn all_attributes(element: &BytesStart) -> Vec<(String, String)> {
+    element
+        .attributes()
+        .map(|a| {
+            let a = a.unwrap_or_else(|e| panic!("{MODEL_DESCRIPTION}: bad attribute: {e}"));
+            let key = a.key.as_ref().to_owned();
+            let value = a
+                .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                .unwrap_or_else(|e| panic!("{MODEL_DESCRIPTION}: bad value of {key}: {e}"))
+                .into_owned();
+            (key, value)
+        })
+        .collect()
+}
+
+fn indices(text: &str, what: &str) -> Vec<usize> {
+    text.split_whitespace()
+        .map(|i| {
+            i.parse()
+                .unwrap_or_else(|_| panic!("{what}: '{i}' is not an index"))
+        })
+        .collect()
+}
+
+fn unknown(element: &BytesStart) -> Unknown {
+    Unknown {
+        index: indices(&required(element, "index"), "Unknown index")[0],
+        dependencies: attribute(element, "dependencies").map(|d| indices(&d, "dependencies")),
+        dependencies_kind: attribute(element, "dependenciesKind"),
+    }
+}
+
 fn parse(xml: &str) -> (Description, Vec<Variable>) {
     let mut reader = Reader::from_str(xml);
     reader.config_mut().trim_text(true);
     let (mut guid, mut model_identifier, mut event_indicators) = (None, None, 0);
-    let mut derivatives = Vec::new();
-    let mut in_derivatives = false;
+    let mut root_attributes = Vec::new();
+    let mut interfaces = Vec::new();
+    let mut type_descriptions = Vec::new();
+    let mut enumerations: Vec<EnumerationType> = Vec::new();
+    let mut event_indicator_references = Vec::new();
+    let (mut derivatives, mut outputs, mut initial_unknowns) = (Vec::new(), Vec::new(), Vec::new());
+    // The ModelStructure list being read: Outputs, Derivatives or InitialUnknowns.
+    let mut list: Option<String> = None;
     let mut variables: Vec<Variable> = Vec::new();
     let mut open: Option<Variable> = None;
     loop {
@@ -96,6 +169,7 @@ fn parse(xml: &str) -> (Description, Vec<Variable>) {
                     event_indicators = attribute(&e, "numberOfEventIndicators").map_or(0, |n| {
                         n.parse().expect("numberOfEventIndicators must be an integer")
                     });
+                    root_attributes = all_attributes(&e);
                 }
                 tag @ ("CoSimulation" | "ModelExchange") => {
                     let identifier = required(&e, "modelIdentifier");
@@ -103,16 +177,50 @@ fn parse(xml: &str) -> (Description, Vec<Variable>) {
                         assert_eq!(other, &identifier, "<{tag}> has another modelIdentifier");
                     }
                     model_identifier = Some(identifier);
+                    interfaces.push((tag.to_owned(), all_attributes(&e)));
                 }
-                "Derivatives" => in_derivatives = true,
-                "Unknown" if in_derivatives => derivatives.push(
-                    required(&e, "index")
-                        .parse()
-                        .expect("an Unknown's index must be an integer"),
-                ),
+                "SimpleType" => type_descriptions.push((
+                    required(&e, "name"),
+                    attribute(&e, "description").unwrap_or_default(),
+                )),
+                "EnumerationType" => enumerations.push(EnumerationType {
+                    name: required(&e, "name"),
+                    items: Vec::new(),
+                }),
+                "Item" => enumerations
+                    .last_mut()
+                    .expect("<Item> outside <EnumerationType>")
+                    .items
+                    .push((
+                        required(&e, "name"),
+                        required(&e, "value")
+                            .parse()
+                            .expect("an Item's value must be an integer"),
+                        attribute(&e, "description").unwrap_or_default(),
+                    )),
+                "EventIndicators" => {
+                    event_indicator_references = required(&e, "valueReferences")
+                        .split_whitespace()
+                        .map(|vr| {
+                            vr.parse()
+                                .expect("EventIndicators: value references are integers")
+                        })
+                        .collect()
+                }
+                tag @ ("Outputs" | "Derivatives" | "InitialUnknowns") => list = Some(tag.to_owned()),
+                "Unknown" => match list.as_deref() {
+                    Some("Derivatives") => derivatives.push(unknown(&e).index),
+                    Some("Outputs") => outputs.push(unknown(&e)),
+                    Some("InitialUnknowns") => initial_unknowns.push(unknown(&e)),
+                    _ => panic!("{MODEL_DESCRIPTION}: <Unknown> outside a ModelStructure list"),
+                },
                 "ScalarVariable" => {
                     open = Some(Variable {
                         name: required(&e, "name"),
+                        description: attribute(&e, "description"),
+                        initial: attribute(&e, "initial"),
+                        declared_type: None,
+                        display_unit: None,
                         value_reference: required(&e, "valueReference")
                             .parse()
                             .expect("valueReference must be an unsigned integer"),
@@ -133,13 +241,19 @@ fn parse(xml: &str) -> (Description, Vec<Variable>) {
                         v.min = attribute(&e, "min");
                         v.max = attribute(&e, "max");
                         v.unit = attribute(&e, "unit");
+                        v.declared_type = attribute(&e, "declaredType");
+                        v.display_unit = attribute(&e, "displayUnit");
                         v.derivative = attribute(&e, "derivative")
                             .map(|i| i.parse().expect("derivative must be a variable index"));
                     }
                 }
                 _ => {}
             },
-            Ok(Event::End(e)) if e.name().as_ref() == "Derivatives" => in_derivatives = false,
+            Ok(Event::End(e))
+                if matches!(e.name().as_ref(), "Outputs" | "Derivatives" | "InitialUnknowns") =>
+            {
+                list = None
+            }
             Ok(Event::End(e)) if e.name().as_ref() == "ScalarVariable" => {
                 variables.push(open.take().expect("unbalanced <ScalarVariable>"));
             }
@@ -157,6 +271,13 @@ fn parse(xml: &str) -> (Description, Vec<Variable>) {
             model_identifier: model_identifier.expect("no <CoSimulation modelIdentifier>"),
             event_indicators,
             derivatives,
+            outputs,
+            initial_unknowns,
+            root_attributes,
+            interfaces,
+            type_descriptions,
+            enumerations,
+            event_indicator_references,
         },
         variables,
     )
@@ -211,6 +332,11 @@ fn generate(guid: &str, model_identifier: &str, variables: &[Variable]) -> Strin
     writeln!(
         w,
         "pub const MODEL_DESCRIPTION_XML: &str = include_str!(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/{MODEL_DESCRIPTION}\"));"
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "/// The FMI 3.0 model description build.rs wrote from it (the FMI 3.0 FMU's).\npub const FMI3_MODEL_DESCRIPTION_XML: &str = include_str!(concat!(env!(\"OUT_DIR\"), \"/fmi3/modelDescription.xml\"));"
     )
     .unwrap();
     writeln!(
@@ -346,6 +472,34 @@ fn generate_continuous_states(
             .collect::<Vec<_>>()
             .join(", ")
     };
+    let indicators: Vec<String> = description
+        .event_indicator_references
+        .iter()
+        .map(|&vr| {
+            let v = variables
+                .iter()
+                .find(|v| v.value_reference == vr)
+                .unwrap_or_else(|| panic!("EventIndicators: no variable has value reference {vr}"));
+            assert!(
+                v.causality == "local" && v.value_type == "Real",
+                "EventIndicators: {} must be a local Real",
+                v.name
+            );
+            format!("Variable::{}", variant_name(&v.name))
+        })
+        .collect();
+    assert_eq!(
+        indicators.len(),
+        description.event_indicators,
+        "the vendor annotation's EventIndicators must list numberOfEventIndicators variables"
+    );
+    writeln!(
+        w,
+        "/// The event-indicator variables, in the order of the indicators.\npub const EVENT_INDICATOR_VARIABLES: [Variable; {}] = [{}];",
+        indicators.len(),
+        indicators.join(", ")
+    )
+    .unwrap();
     writeln!(
         w,
         "/// The continuous states (Model Exchange), in the order of the state vector.\npub const CONTINUOUS_STATE_VARIABLES: [Variable; {}] = [{}];",
@@ -365,6 +519,7 @@ fn generate_continuous_states(
 fn main() {
     println!("cargo:rerun-if-changed={MODEL_DESCRIPTION}");
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed=build/fmi3_description.rs");
     let xml = std::fs::read_to_string(MODEL_DESCRIPTION)
         .unwrap_or_else(|e| panic!("cannot read {MODEL_DESCRIPTION}: {e}"));
     let (description, variables) = parse(&xml);
@@ -374,4 +529,9 @@ fn main() {
     generate_continuous_states(&mut code, &description, &variables, &states);
     let out_dir = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
     std::fs::write(Path::new(&out_dir).join("variables.rs"), code).expect("cannot write variables.rs");
+    let fmi3 = fmi3_description::generate(&xml, &description, &variables);
+    let fmi3_dir = Path::new(&out_dir).join("fmi3");
+    std::fs::create_dir_all(&fmi3_dir).expect("cannot make OUT_DIR/fmi3");
+    std::fs::write(fmi3_dir.join("modelDescription.xml"), fmi3)
+        .expect("cannot write the FMI 3.0 model description");
 }

@@ -7,16 +7,21 @@ use quick_xml::Reader;
 use quick_xml::events::Event;
 use tirelag::fmi::instance::start_parameters;
 use tirelag::fmi::variables::{
-    CONTINUOUS_STATE_VARIABLES, Causality, DERIVATIVE_VARIABLES, GUID, Role, VARIABLES, ValueType, Variable,
+    CONTINUOUS_STATE_VARIABLES, Causality, DERIVATIVE_VARIABLES, EVENT_INDICATOR_VARIABLES,
+    FMI3_MODEL_DESCRIPTION_XML, GUID, Role, VARIABLES, ValueType, Variable,
 };
-use tirelag::physics::tire::hybrid::CONTINUOUS_STATES;
+use tirelag::physics::tire::hybrid::{CONTINUOUS_STATES, GUARDS};
 use tirelag::physics::{Input, Output, Parameter, Parameters};
 
 const XML: &str = include_str!("../modelDescription/modelDescription.xml");
 
 /// (element name, attributes) of every element, in document order.
 fn elements() -> Vec<(String, BTreeMap<String, String>)> {
-    let mut reader = Reader::from_str(XML);
+    elements_of(XML)
+}
+
+fn elements_of(xml: &str) -> Vec<(String, BTreeMap<String, String>)> {
+    let mut reader = Reader::from_str(xml);
     let mut out = Vec::new();
     loop {
         match reader.read_event().unwrap() {
@@ -150,6 +155,8 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
     wanted.push(Role::TireDataFile);
     wanted.extend((0..CONTINUOUS_STATES).map(Role::ContinuousState));
     wanted.extend((0..CONTINUOUS_STATES).map(Role::Derivative));
+    wanted.extend((0..GUARDS).map(Role::EventIndicator));
+    wanted.push(Role::Time);
     assert_eq!(roles.len(), wanted.len());
     for role in wanted {
         assert_eq!(roles.iter().filter(|r| **r == role).count(), 1, "{role:?}");
@@ -162,7 +169,10 @@ fn every_physics_signal_and_parameter_has_exactly_one_variable() {
             Role::Parameter(_) | Role::ModelChoice | Role::FrictionChoice | Role::TireDataFile => {
                 info.causality == Causality::Parameter
             }
-            Role::ContinuousState(_) | Role::Derivative(_) => info.causality == Causality::Local,
+            Role::ContinuousState(_) | Role::Derivative(_) | Role::EventIndicator(_) => {
+                info.causality == Causality::Local
+            }
+            Role::Time => info.causality == Causality::Independent,
         };
         assert!(causality_fits, "{}", info.name);
     }
@@ -251,4 +261,78 @@ fn each_state_derivative_names_its_state() {
         assert_eq!(derivative.name(), format!("der({})", state.name()));
         assert_eq!(state.info().start, Some(0.0), "{}", state.name());
     }
+}
+
+/// The FMI 3.0 model description build.rs writes from this one: the same variables with
+/// the same value references and attributes in FMI 3.0's types, the same state vector,
+/// the event indicators as variables, and the instantiation token the GUID.
+#[test]
+fn the_fmi3_description_declares_the_same_variables() {
+    let fmi3 = elements_of(FMI3_MODEL_DESCRIPTION_XML);
+    let root = &fmi3[0];
+    assert_eq!(
+        (root.0.as_str(), root.1["fmiVersion"].as_str()),
+        ("fmiModelDescription", "3.0")
+    );
+    assert_eq!(root.1["instantiationToken"], GUID);
+    let variables: BTreeMap<&str, (&str, &BTreeMap<String, String>)> = fmi3
+        .iter()
+        .filter(|(_, a)| a.contains_key("valueReference") && a.contains_key("name"))
+        .map(|(tag, a)| (a["name"].as_str(), (tag.as_str(), a)))
+        .collect();
+    assert_eq!(variables.len(), VARIABLES.len());
+    let number = |text: Option<&String>| text.map(|t| t.parse::<f64>().unwrap());
+    for info in &VARIABLES {
+        let (tag, a) = variables[info.name];
+        let expected_tag = match info.value_type {
+            ValueType::Real => "Float64",
+            ValueType::Integer => "Enumeration",
+            ValueType::String => "String",
+        };
+        assert_eq!(tag, expected_tag, "{}", info.name);
+        assert_eq!(
+            a["valueReference"],
+            info.value_reference.to_string(),
+            "{}",
+            info.name
+        );
+        let causality = format!("{:?}", info.causality).to_lowercase();
+        assert_eq!(a["causality"], causality, "{}", info.name);
+        assert_eq!(a["variability"], format!("{:?}", info.variability).to_lowercase());
+        if info.value_type != ValueType::String {
+            assert_eq!(number(a.get("start")), info.start, "{}", info.name);
+        }
+        assert_eq!(number(a.get("min")), info.min, "{}", info.name);
+        assert_eq!(number(a.get("max")), info.max, "{}", info.name);
+        assert_eq!(
+            a.get("unit").map_or("", String::as_str),
+            info.unit,
+            "{}",
+            info.name
+        );
+    }
+    let listed = |tag: &str| -> Vec<u32> {
+        fmi3.iter()
+            .filter(|(t, _)| t == tag)
+            .map(|(_, a)| a["valueReference"].parse().unwrap())
+            .collect()
+    };
+    let references =
+        |list: &[Variable]| -> Vec<u32> { list.iter().map(|v| v.info().value_reference).collect() };
+    assert_eq!(
+        listed("ContinuousStateDerivative"),
+        references(&DERIVATIVE_VARIABLES)
+    );
+    assert_eq!(listed("EventIndicator"), references(&EVENT_INDICATOR_VARIABLES));
+    assert_eq!(listed("EventIndicator").len(), GUARDS);
+    for (k, derivative) in DERIVATIVE_VARIABLES.iter().enumerate() {
+        let state = CONTINUOUS_STATE_VARIABLES[k].info().value_reference.to_string();
+        assert_eq!(variables[derivative.name()].1["derivative"], state);
+    }
+    let outputs: Vec<u32> = VARIABLES
+        .iter()
+        .filter(|v| v.causality == Causality::Output)
+        .map(|v| v.value_reference)
+        .collect();
+    assert_eq!(listed("Output"), outputs);
 }

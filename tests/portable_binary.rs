@@ -157,15 +157,36 @@ fn glibc_version(name: &str) -> Option<(u32, u32)> {
 
 /// The library exactly as packed: `binaries/linux64/TireLag.so` inside the FMU archive.
 fn packed_library() -> Vec<u8> {
-    let fmu = support::packed_artifact("TIRELAG_FMU", "target/fmu/TireLag.fmu");
+    library_in(
+        "TIRELAG_FMU",
+        "target/fmu/TireLag.fmu",
+        "binaries/linux64/TireLag.so",
+    )
+}
+
+/// The entry `name` of the FMU archive at `relative` (or the path in `env_var`).
+fn library_in(env_var: &str, relative: &str, name: &str) -> Vec<u8> {
+    let fmu = support::packed_artifact(env_var, relative);
     let mut archive =
         zip::ZipArchive::new(std::fs::File::open(&fmu).unwrap()).expect("the FMU is a zip archive");
     let mut entry = archive
-        .by_name("binaries/linux64/TireLag.so")
-        .expect("the FMU holds binaries/linux64/TireLag.so");
+        .by_name(name)
+        .unwrap_or_else(|_| panic!("{} holds {name}", fmu.display()));
     let mut bytes = Vec::new();
     entry.read_to_end(&mut bytes).unwrap();
     bytes
+}
+
+/// The FMI 3.0 FMU ships the very same library (it exports both versions' functions), so
+/// everything checked here holds for it too.
+#[test]
+fn the_fmi3_fmu_packs_the_same_library() {
+    let fmi3 = library_in(
+        "TIRELAG_FMU3",
+        "target/fmu/fmi3/TireLag.fmu",
+        "binaries/x86_64-linux/TireLag.so",
+    );
+    assert!(fmi3 == packed_library(), "the two FMUs hold different libraries");
 }
 
 #[test]

@@ -1,9 +1,24 @@
-//! Log messages to the importer's logger callback, by FMI log category.
+//! Log messages to the importer's logger callback, by FMI log category. The callback is
+//! FMI 2.0's (a format string with the instance name) or FMI 3.0's (the plain text).
 
 use std::ffi::CString;
 
 use super::status::Status;
 use super::sys::{fmi2CallbackLogger, fmi2ComponentEnvironment, fmi2Status};
+use super::sys3::{fmi3InstanceEnvironment, fmi3LogMessageCallback, fmi3Status};
+
+/// The importer's logger callback, as the FMI version it instantiated with gives it.
+#[derive(Clone, Copy, Debug)]
+pub enum Callback {
+    Fmi2 {
+        logger: fmi2CallbackLogger,
+        environment: fmi2ComponentEnvironment,
+    },
+    Fmi3 {
+        log_message: fmi3LogMessageCallback,
+        environment: fmi3InstanceEnvironment,
+    },
+}
 
 /// The log categories declared in the model description.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,8 +58,7 @@ impl Category {
 /// The importer's logger with the categories switched on.
 #[derive(Debug)]
 pub struct Logger {
-    callback: fmi2CallbackLogger,
-    environment: fmi2ComponentEnvironment,
+    callback: Callback,
     instance_name: CString,
     enabled: [bool; 3],
 }
@@ -55,15 +69,9 @@ unsafe impl Send for Logger {}
 
 impl Logger {
     /// Errors are always logged; warnings and call traces when `logging_on`.
-    pub fn new(
-        callback: fmi2CallbackLogger,
-        environment: fmi2ComponentEnvironment,
-        instance_name: CString,
-        logging_on: bool,
-    ) -> Self {
+    pub fn new(callback: Callback, instance_name: CString, logging_on: bool) -> Self {
         Self {
             callback,
-            environment,
             instance_name,
             enabled: [true, logging_on, logging_on],
         }
@@ -79,7 +87,7 @@ impl Logger {
         self.enabled[category as usize]
     }
 
-    /// fmi2SetDebugLogging: no categories means all of them.
+    /// SetDebugLogging: no categories means all of them.
     pub fn set_categories(&mut self, on: bool, categories: &[Category]) {
         if categories.is_empty() {
             self.enabled = [on; 3];
@@ -92,14 +100,7 @@ impl Logger {
 
     pub fn log(&self, status: Status, category: Category, message: &str) {
         if self.enabled(category) {
-            send(
-                self.callback,
-                self.environment,
-                &self.instance_name,
-                status,
-                category,
-                message,
-            );
+            send(self.callback, &self.instance_name, status, category, message);
         }
     }
 }
@@ -121,29 +122,50 @@ pub fn escape_message(message: &str) -> CString {
     CString::new(escaped).expect("NUL bytes were replaced")
 }
 
-/// Calls the importer's logger with the escaped message as the format and no variable
-/// arguments.
+/// Calls the importer's logger: FMI 2.0's with the escaped message as the format and no
+/// variable arguments, FMI 3.0's with the message as it is (FMI 3.0 does not format it).
 pub(super) fn send(
-    callback: fmi2CallbackLogger,
-    environment: fmi2ComponentEnvironment,
+    callback: Callback,
     instance_name: &CString,
     status: Status,
     category: Category,
     message: &str,
 ) {
-    let Some(callback) = callback else { return };
-    let message = escape_message(message);
     let category = CString::new(category.name()).unwrap_or_default();
-    // SAFETY: the importer gave this callback for exactly this call; every string is a
-    // valid NUL-terminated C string that outlives the call.
-    unsafe {
-        callback(
+    match callback {
+        Callback::Fmi2 {
+            logger: Some(logger),
             environment,
-            instance_name.as_ptr(),
-            status as fmi2Status,
-            category.as_ptr(),
-            message.as_ptr(),
-        )
+        } => {
+            let message = escape_message(message);
+            // SAFETY: the importer gave this callback for exactly this call; every string
+            // is a valid NUL-terminated C string that outlives the call.
+            unsafe {
+                logger(
+                    environment,
+                    instance_name.as_ptr(),
+                    status as fmi2Status,
+                    category.as_ptr(),
+                    message.as_ptr(),
+                )
+            }
+        }
+        Callback::Fmi3 {
+            log_message: Some(log_message),
+            environment,
+        } => {
+            let message = CString::new(message.replace('\0', " ")).expect("NUL bytes were replaced");
+            // SAFETY: as above.
+            unsafe {
+                log_message(
+                    environment,
+                    status as fmi3Status,
+                    category.as_ptr(),
+                    message.as_ptr(),
+                )
+            }
+        }
+        _ => {}
     }
 }
 

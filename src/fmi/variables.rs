@@ -34,6 +34,17 @@ pub enum ValueType {
     String,
 }
 
+impl ValueType {
+    /// The type in both versions' words, for messages.
+    pub const fn describe(self) -> &'static str {
+        match self {
+            ValueType::Real => "Real (FMI 3.0: Float64)",
+            ValueType::Integer => "Integer (FMI 3.0: an Enumeration, read and set as Int64)",
+            ValueType::String => "String",
+        }
+    }
+}
+
 /// A ScalarVariable's attributes as declared in the model description.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VariableInfo {
@@ -65,6 +76,10 @@ pub enum Role {
     ContinuousState(usize),
     /// The derivative of entry k of the continuous state vector.
     Derivative(usize),
+    /// Event indicator k (Model Exchange): guard k of the hybrid tire.
+    EventIndicator(usize),
+    /// `time`, the independent variable.
+    Time,
 }
 
 impl Variable {
@@ -127,16 +142,26 @@ impl Variable {
             V::MuLoadSensitivity => Role::Parameter(Parameter::FrictionLoadSensitivity),
             V::BoreRadius => Role::Parameter(Parameter::BoreRadius),
             V::TirFile => Role::TireDataFile,
+            V::Time => Role::Time,
             // The continuous states and their derivatives, by their place in the state
-            // vector (the model description's ModelStructure/Derivatives).
+            // vector (the model description's ModelStructure/Derivatives), and the event
+            // indicators, by their place in the vendor annotation's list.
             _ => self.continuous_role(),
         }
     }
 
-    /// [`Role::ContinuousState`] or [`Role::Derivative`]; any other variable without a
-    /// role stops the build (the roles are evaluated at compile time).
+    /// [`Role::ContinuousState`], [`Role::Derivative`] or [`Role::EventIndicator`]; any
+    /// other variable without a role stops the build (the roles are evaluated at compile
+    /// time).
     const fn continuous_role(self) -> Role {
         let mut k = 0;
+        while k < EVENT_INDICATOR_VARIABLES.len() {
+            if EVENT_INDICATOR_VARIABLES[k] as usize == self as usize {
+                return Role::EventIndicator(k);
+            }
+            k += 1;
+        }
+        k = 0;
         while k < CONTINUOUS_STATE_VARIABLES.len() {
             if CONTINUOUS_STATE_VARIABLES[k] as usize == self as usize {
                 return Role::ContinuousState(k);

@@ -134,7 +134,7 @@ def test_rejected_multi_value_set_changes_nothing(slaves, log):
 
 # --------------------------------------------------------------------------- unknown references
 
-@pytest.mark.parametrize("vr", [0, 6, 10, 20, 99, 126, 999, 2**31, 2**32 - 1])
+@pytest.mark.parametrize("vr", [6, 10, 20, 99, 126, 999, 2**31, 2**32 - 1])
 def test_unknown_value_reference_is_refused(slaves, log, vr):
     s, twin, t = stepping_pair(slaves, log)
     for call, args in [(s.setReal, ([vr], [1.0])), (s.getReal, ([vr],)),
@@ -151,6 +151,7 @@ def test_wrong_type_and_causality_are_refused(slaves, log):
         (s.setReal, ([fc.MODEL_VR], [1.0]), ["tireModel"]),             # Integer via setReal
         (s.setInteger, ([fc.PARAMETER_VR["Calpha"]], [1]), ["Calpha"]),  # Real via setInteger
         (s.setReal, ([fc.OUTPUT_VR["Fy"]], [1.0]), ["Fy"]),             # an output
+        (s.setReal, ([0], [1.0]), ["time"]),                            # the independent variable
         (s.setBoolean, ([fc.INPUT_VR["vy"]], [True]), []),
         (s.setString, ([fc.INPUT_VR["vy"]], ["1"]), []),
     ]

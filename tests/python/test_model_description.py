@@ -163,11 +163,12 @@ def test_no_variable_is_named_after_a_modelica_keyword(variables):
 
 def test_no_other_variables(variables):
     # Model Exchange: the model's states in six slots, the branch offsets by direction
-    # and branch, and their derivatives.
+    # and branch, their derivatives, and the event indicators; the independent variable.
     states = {f"tireState{k}" for k in range(1, 7)}
     states |= {f"sliderOffset{d}{i}" for d in ("X", "Y", "Psi") for i in range(1, 5)}
+    guards = {f"guard{g}{i}" for g in ("Planar", "Yaw") for i in range(1, 5)} | {"guardLoad"}
     expected = set(INPUT_UNITS) | set(OUTPUT_UNITS) | set(PARAMETER_UNITS) | {"tireModel", "friction"}
-    expected |= states | {f"der({s})" for s in states} | {"tirFile"}
+    expected |= states | {f"der({s})" for s in states} | {"tirFile", "time"} | guards
     assert set(variables) == expected
     vrs = [v.valueReference for v in variables.values()]
     assert len(vrs) == len(set(vrs)), "value references must be unique"

@@ -1,5 +1,6 @@
 //! An importer for the tests: loads the packed FMU binary with libloading (through the
-//! bindgen loader of the official headers) and drives it through the C ABI.
+//! bindgen loader of the official headers) and drives it through the C ABI. [`fmi_crate`]
+//! holds what the tests through the `fmi` crate, a second importer, share.
 
 #![allow(dead_code)]
 
@@ -10,6 +11,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, Once};
 
 use fmi_sys::fmi2::*;
+
+pub mod fmi3;
+pub mod fmi_crate;
 
 pub const OK: fmi2Status = fmi2Status_fmi2OK;
 pub const ERROR: fmi2Status = fmi2Status_fmi2Error;
@@ -117,18 +121,22 @@ pub fn message_count() -> usize {
     COUNT.load(Ordering::Relaxed)
 }
 
+/// Keeps a log line "instance|level|message" (both versions' loggers end here).
+pub fn record(line: String) {
+    COUNT.fetch_add(1, Ordering::Relaxed);
+    if RECORD.load(Ordering::Relaxed) {
+        MESSAGES.lock().unwrap().push(line);
+    }
+}
+
 struct Capture;
 
 impl log::Log for Capture {
     fn enabled(&self, _: &log::Metadata) -> bool {
         true
     }
-    fn log(&self, record: &log::Record) {
-        let line = format!("{}|{}|{}", record.target(), record.level(), record.args());
-        COUNT.fetch_add(1, Ordering::Relaxed);
-        if RECORD.load(Ordering::Relaxed) {
-            MESSAGES.lock().unwrap().push(line);
-        }
+    fn log(&self, entry: &log::Record) {
+        record(format!("{}|{}|{}", entry.target(), entry.level(), entry.args()));
     }
     fn flush(&self) {}
 }

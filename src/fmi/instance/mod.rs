@@ -87,6 +87,8 @@ pub fn start_parameters() -> Result<Parameters, String> {
             | Role::Output(_)
             | Role::ContinuousState(_)
             | Role::Derivative(_)
+            | Role::EventIndicator(_)
+            | Role::Time
             | Role::TireDataFile => {}
         }
     }
@@ -201,6 +203,7 @@ impl Instance {
     }
 
     pub fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>) -> CallResult {
+        self.require(Call::SetupExperiment)?;
         if !start_time.is_finite() {
             return Err(Rejection::error(format!("startTime {start_time} is not finite")));
         }
@@ -218,6 +221,7 @@ impl Instance {
     }
 
     pub fn enter_initialization_mode(&mut self) -> CallResult {
+        self.require(Call::EnterInitializationMode)?;
         self.phase = Phase::InitializationMode;
         Ok(())
     }
@@ -225,6 +229,7 @@ impl Instance {
     /// Into step mode (Co-Simulation) or event mode (Model Exchange: the importer then
     /// asks for the initial modes with fmi2NewDiscreteStates).
     pub fn exit_initialization_mode(&mut self) -> CallResult {
+        self.require(Call::ExitInitializationMode)?;
         self.apply_tire_data()?;
         self.sync_tire()?;
         self.phase = match self.interface {
@@ -235,12 +240,14 @@ impl Instance {
     }
 
     pub fn terminate(&mut self) -> CallResult {
+        self.require(Call::Terminate)?;
         self.phase = Phase::Terminated;
         Ok(())
     }
 
     /// Back to the start values, start time and the instantiated phase; logging stays.
     pub fn reset(&mut self) -> CallResult {
+        self.require(Call::Reset)?;
         let parameters = start_parameters().map_err(Rejection::error)?;
         self.tire = start_tire(&parameters).map_err(Rejection::error)?;
         self.parameters = parameters;
@@ -302,6 +309,11 @@ impl Instance {
                 self.sync_tire()?;
                 self.tire.continuous_rates()[k]
             }
+            Role::EventIndicator(k) => {
+                self.sync_tire()?;
+                self.tire.guards()[k]
+            }
+            Role::Time => self.time,
             Role::ModelChoice | Role::FrictionChoice | Role::TireDataFile => {
                 unreachable!("lookup checked the type: the selectors are Integers, tirFile a String")
             }
@@ -401,10 +413,14 @@ impl Instance {
                     ),
                 },
             },
-            Causality::Local => refuse(
-                "it is a continuous state or its derivative: Model Exchange sets the states with \
-                 fmi2SetContinuousStates"
+            Causality::Local => refuse(match variable.role() {
+                Role::EventIndicator(_) => "it is an event indicator, computed by the FMU".into(),
+                _ => "it is a continuous state or its derivative: Model Exchange sets the states \
+                      with SetContinuousStates"
                     .into(),
+            }),
+            Causality::Independent => refuse(
+                "it is the independent variable: DoStep advances it, and Model Exchange sets it with SetTime".into(),
             ),
             _ => refuse(format!("it is an {:?} and cannot be set", info.causality).to_lowercase()),
         }
@@ -420,6 +436,8 @@ impl Instance {
             | Role::Output(_)
             | Role::ContinuousState(_)
             | Role::Derivative(_)
+            | Role::EventIndicator(_)
+            | Role::Time
             | Role::TireDataFile => f64::NAN,
         }
     }
@@ -448,8 +466,13 @@ impl Instance {
                 self.parameters.friction = FrictionLaw::from_value(value as i64).expect("checked");
                 self.parameters_changed = true;
             }
-            Role::Output(_) | Role::ContinuousState(_) | Role::Derivative(_) | Role::TireDataFile => {
-                unreachable!("outputs and locals are refused by check_settable, tirFile by its type")
+            Role::Output(_)
+            | Role::ContinuousState(_)
+            | Role::Derivative(_)
+            | Role::EventIndicator(_)
+            | Role::Time
+            | Role::TireDataFile => {
+                unreachable!("outputs, locals and time are refused by check_settable, tirFile by its type")
             }
         }
     }
@@ -547,15 +570,24 @@ impl Instance {
         self.set_values(ValueType::Integer, value_references, values)
     }
 
-    /// fmi2Get/SetBoolean: this FMU has no such variables.
+    /// Get/Set of a type this FMU has no variables of (Boolean; in FMI 3.0 also the
+    /// other integer and float types, Binary and Clock).
     pub fn no_variables_of_type(&self, call: Call, value_references: &[u32]) -> CallResult {
         self.require(call)?;
-        match value_references.first() {
-            None => Ok(()),
-            Some(vr) => Err(Rejection::error(format!(
-                "this FMU has no variables of that type (value reference {vr})"
-            ))),
-        }
+        let Some(&vr) = value_references.first() else {
+            return Ok(());
+        };
+        let what = match Variable::from_value_reference(vr) {
+            Some(variable) => format!(
+                "value reference {vr} is {}, a {}",
+                variable.name(),
+                variable.info().value_type.describe()
+            ),
+            None => format!("and no variable has value reference {vr}"),
+        };
+        Err(Rejection::error(format!(
+            "this FMU has no variables of that type; {what}"
+        )))
     }
 
     pub fn do_step(&mut self, communication_point: f64, step_size: f64) -> CallResult {

@@ -64,7 +64,7 @@ impl Instance {
         match &self.resources {
             Some(resources) => Ok(resources.join(path)),
             None => Err(Rejection::error(format!(
-                "tirFile '{given}' is relative, but fmi2Instantiate gave no resources folder to find it in"
+                "tirFile '{given}' is relative, but the importer gave no resources folder at instantiation to find it in"
             ))),
         }
     }
