@@ -83,6 +83,7 @@ pub unsafe fn array_mut<'a, T>(ptr: *mut T, n: usize, name: &str) -> CallResult<
 
 /// # Safety
 /// A non-null `ptr` must point to a writable `T`.
+#[inline]
 pub unsafe fn out<'a, T>(ptr: *mut T, name: &str) -> CallResult<&'a mut T> {
     // SAFETY: the caller promises a writable T behind a non-null pointer.
     unsafe { ptr.as_mut() }.ok_or_else(|| Rejection::error(format!("{name} is NULL")))
@@ -624,6 +625,13 @@ pub fn completed_integrator_step<B: From<bool>>(
     })
 }
 
+/// The time of the instance behind `c`, if there is one.
+pub fn time_of(c: *mut c_void) -> Option<f64> {
+    // SAFETY: a non-null handle is an instance made by Instantiate and not yet freed.
+    unsafe { c.cast::<Instance>().as_ref() }.map(Instance::time)
+}
+
+#[inline]
 pub fn do_step(c: *mut c_void, function: &str, communication_point: f64, step_size: f64) -> StatusCode {
     let arguments = move || {
         format!("currentCommunicationPoint = {communication_point}, communicationStepSize = {step_size}")

@@ -912,17 +912,43 @@ pub extern "C" fn fmi3DoStep(
     earlyReturn: *mut fmi3Boolean,
     lastSuccessfulTime: *mut fmi3Float64,
 ) -> fmi3Status {
-    let (t, h) = (currentCommunicationPoint, communicationStepSize);
-    let arguments = move || format!("currentCommunicationPoint = {t}, communicationStepSize = {h}");
-    b::with_instance_logged(instance, "fmi3DoStep", arguments, |instance| unsafe {
-        let event = out(eventHandlingNeeded, "eventHandlingNeeded")?;
-        let terminate = out(terminateSimulation, "terminateSimulation")?;
-        let early = out(earlyReturn, "earlyReturn")?;
-        let last = out(lastSuccessfulTime, "lastSuccessfulTime")?;
-        let stepped = instance.do_step(t, h);
-        // A step is taken whole or not at all: the time reached is the instance's.
-        (*event, *terminate, *early, *last) = (false, false, false, instance.time());
-        stepped
+    let flags = [eventHandlingNeeded, terminateSimulation, earlyReturn];
+    if flags.iter().any(|f| f.is_null()) || lastSuccessfulTime.is_null() {
+        return null_step_output(instance, flags);
+    }
+    // The step of FMI 2.0, then FMI 3.0's reports: a step is taken whole or not at all,
+    // with no event and no early return; the time reached is the instance's.
+    let status = b::do_step(
+        instance,
+        "fmi3DoStep",
+        currentCommunicationPoint,
+        communicationStepSize,
+    );
+    // SAFETY: checked non-null above; the importer promises writable values behind them.
+    unsafe {
+        for flag in flags {
+            *flag = false;
+        }
+        *lastSuccessfulTime = b::time_of(instance).unwrap_or(currentCommunicationPoint);
+    }
+    status
+}
+
+/// fmi3DoStep with an output pointer NULL: refused, naming it, before anything moves.
+#[cold]
+#[inline(never)]
+fn null_step_output(instance: fmi3Instance, flags: [*mut fmi3Boolean; 3]) -> fmi3Status {
+    with_instance(instance, "fmi3DoStep", |_| {
+        let names = ["eventHandlingNeeded", "terminateSimulation", "earlyReturn"];
+        let null = flags
+            .iter()
+            .zip(names)
+            .find(|(f, _)| f.is_null())
+            .map(|(_, name)| name);
+        Err(Rejection::error(format!(
+            "{} is NULL",
+            null.unwrap_or("lastSuccessfulTime")
+        )))
     })
 }
 
