@@ -29,14 +29,33 @@ impl fmt::Display for TireDataError {
 
 impl std::error::Error for TireDataError {}
 
-/// Reads and maps the property file at `path`.
+/// The largest property file read: real ones are tens of kilobytes.
+const MAX_FILE_BYTES: u64 = 16 << 20;
+
+/// Reads and maps the property file at `path`. Only a regular file of at most
+/// [`MAX_FILE_BYTES`] is read, so that a device or a pipe named by mistake (`/dev/zero`,
+/// a FIFO) is refused instead of blocking initialisation or filling the memory.
 pub fn read(path: &Path) -> Result<Mapping, TireDataError> {
     let file = path.display().to_string();
     let error = |message: String| TireDataError {
         file: file.clone(),
         message,
     };
-    let text = std::fs::read(path).map_err(|e| error(format!("cannot be read: {e}")))?;
+    let metadata = std::fs::metadata(path).map_err(|e| error(format!("cannot be read: {e}")))?;
+    if !metadata.is_file() {
+        return Err(error("is not a regular file".into()));
+    }
+    if metadata.len() > MAX_FILE_BYTES {
+        return Err(error(format!(
+            "has {} bytes, more than the {MAX_FILE_BYTES} a tire property file may have",
+            metadata.len()
+        )));
+    }
+    let opened = std::fs::File::open(path).map_err(|e| error(format!("cannot be read: {e}")))?;
+    let mut text = Vec::new();
+    // Bounded again while reading: the file may grow after its size was read.
+    std::io::Read::read_to_end(&mut std::io::Read::take(opened, MAX_FILE_BYTES), &mut text)
+        .map_err(|e| error(format!("cannot be read: {e}")))?;
     // Property files are often Latin-1 in their comments: decode byte by byte there.
     let text =
         String::from_utf8(text).unwrap_or_else(|e| e.into_bytes().iter().map(|&b| b as char).collect());

@@ -19,6 +19,7 @@ f. the mapping command prints each value with its source and writes an SSP param
 from __future__ import annotations
 
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -213,8 +214,13 @@ def write_variant(tmp_path, replace, name="variant.tir"):
 def bad_files(tmp_path):
     """(path, words the error must name) for files that cannot be used (the last one by
     the contact-mass model only: its tread must stay shorter than the mapped lengths)."""
+    fifo = tmp_path / "pipe.tir"
+    os.mkfifo(fifo)
     return [
         (tmp_path / "missing.tir", ["missing.tir", "cannot be read"]),
+        # A device or a pipe is refused at once, not read forever or waited on.
+        (Path("/dev/zero"), ["/dev/zero", "not a regular file"]),
+        (fifo, ["pipe.tir", "not a regular file"]),
         (write_variant(tmp_path, {"FILE_TYPE": "FILE_TYPE = 'tbl'"}, "not_a_tire.tir"),
          ["not_a_tire.tir", "FILE_TYPE", "line 2"]),
         (write_variant(tmp_path, {"PKY1": "PKY1 = -15.3x"}, "bad_line.tir"),

@@ -420,7 +420,8 @@ impl Instance {
                     .into(),
             }),
             Causality::Independent => refuse(
-                "it is the independent variable: DoStep advances it, and Model Exchange sets it with SetTime".into(),
+                "it is the independent variable: DoStep advances it, and Model Exchange sets it with SetTime"
+                    .into(),
             ),
             _ => refuse(format!("it is an {:?} and cannot be set", info.causality).to_lowercase()),
         }
