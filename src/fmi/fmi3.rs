@@ -916,21 +916,23 @@ pub extern "C" fn fmi3DoStep(
     if flags.iter().any(|f| f.is_null()) || lastSuccessfulTime.is_null() {
         return null_step_output(instance, flags);
     }
-    // The step of FMI 2.0, then FMI 3.0's reports: a step is taken whole or not at all,
-    // with no event and no early return; the time reached is the instance's.
+    // FMI 3.0's reports around the step of FMI 2.0: a step is taken whole or not at all,
+    // with no event and no early return (written first: nothing to keep across the step);
+    // the time reached is the instance's.
+    // SAFETY: checked non-null above; the importer promises writable values behind them.
+    unsafe {
+        for flag in flags {
+            *flag = false;
+        }
+    }
     let status = b::do_step(
         instance,
         "fmi3DoStep",
         currentCommunicationPoint,
         communicationStepSize,
     );
-    // SAFETY: checked non-null above; the importer promises writable values behind them.
-    unsafe {
-        for flag in flags {
-            *flag = false;
-        }
-        *lastSuccessfulTime = b::time_of(instance).unwrap_or(currentCommunicationPoint);
-    }
+    // SAFETY: as above.
+    unsafe { *lastSuccessfulTime = b::time_of(instance).unwrap_or(currentCommunicationPoint) };
     status
 }
 
