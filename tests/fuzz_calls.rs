@@ -1129,13 +1129,7 @@ impl Fuzz3<'_> {
                 return;
             }
             self.time += h;
-            if event || terminate || early || last != self.time {
-                self.fail(&format!(
-                    "fmi3DoStep: eventHandlingNeeded = {event}, terminateSimulation = {terminate}, \
-                     earlyReturn = {early}, lastSuccessfulTime = {last:?} (expected false, false, false, {:?})",
-                    self.time
-                ));
-            }
+            self.check_step_report(event, terminate, early, last);
         }
     }
 
@@ -1269,13 +1263,19 @@ impl Fuzz3<'_> {
             if outs.0.is_null() || outs.1.is_null() || outs.2.is_null() || outs.3.is_null() {
                 self.fail("fmi3DoStep returned OK with a NULL out-pointer");
             }
-            if event || terminate || early || last != self.time {
-                self.fail(&format!(
-                    "fmi3DoStep: eventHandlingNeeded = {event}, terminateSimulation = {terminate}, \
-                     earlyReturn = {early}, lastSuccessfulTime = {last:?} (expected false, false, false, {:?})",
-                    self.time
-                ));
-            }
+            self.check_step_report(event, terminate, early, last);
+        }
+    }
+
+    /// What a successful fmi3DoStep reports: no event, no termination, no early return,
+    /// and the time it reached.
+    fn check_step_report(&self, event: bool, terminate: bool, early: bool, last: f64) {
+        if event || terminate || early || last != self.time {
+            self.fail(&format!(
+                "fmi3DoStep: eventHandlingNeeded = {event}, terminateSimulation = {terminate}, \
+                 earlyReturn = {early}, lastSuccessfulTime = {last:?} (expected false, false, false, {:?})",
+                self.time
+            ));
         }
     }
 
