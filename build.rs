@@ -458,13 +458,6 @@ fn generate_continuous_states(
     states: &[(usize, usize)],
 ) {
     let w = out;
-    writeln!(w, "/// numberOfEventIndicators.").unwrap();
-    writeln!(
-        w,
-        "pub const NUMBER_OF_EVENT_INDICATORS: usize = {};",
-        description.event_indicators
-    )
-    .unwrap();
     let list = |pick: fn(&(usize, usize)) -> usize| {
         states
             .iter()

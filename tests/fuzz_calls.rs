@@ -554,6 +554,12 @@ fn strings_shown(pointer: *const fmi3String, values: &[fmi3String]) -> String {
     format!("[{}]", each.join(", "))
 }
 
+/// The kinds of [`Fuzz3::typed_call`]: the types without variables are 0 to
+/// `TYPED_OTHERS - 1`, then the two with variables.
+const TYPED_OTHERS: u64 = 11;
+const TYPED_FLOAT64: u64 = TYPED_OTHERS;
+const TYPED_INT64: u64 = TYPED_OTHERS + 1;
+
 /// One FMI 3.0 sequence: an instance, its calls, their trace (printed with a failure, and
 /// as they are made with TIRELAG_FUZZ_TRACE set), the status counts.
 struct Fuzz3<'a> {
@@ -846,58 +852,10 @@ impl Fuzz3<'_> {
             32 | 33 => self.set_inputs(),
             34 | 35 if self.model_exchange => self.integrate(),
             34 | 35 => self.steps(),
-            4 | 5 => {
-                let (refs, r, nv) = self.references();
-                let values = self.rng.reals(nv);
-                let v = maybe_null(self.rng, &values);
-                self.enter(format!(
-                    "fmi3SetFloat64(vr = {}, nvr = {}, values = {}, nValues = {nv})",
-                    shown(r, &refs),
-                    refs.len(),
-                    shown(v, &values)
-                ));
-                let s = unsafe { fmu.fmi3SetFloat64(c, r, refs.len(), v, nv) };
-                self.done(s);
-            }
-            6 => {
-                let (refs, r, nv) = self.references();
-                let mut values = vec![0.0; nv];
-                let v = maybe_null_mut(self.rng, &mut values);
-                self.enter(format!(
-                    "fmi3GetFloat64(vr = {}, nvr = {}, values = {}, nValues = {nv})",
-                    shown(r, &refs),
-                    refs.len(),
-                    slots(v, nv)
-                ));
-                let s = unsafe { fmu.fmi3GetFloat64(c, r, refs.len(), v, nv) };
-                self.done(s);
-            }
-            7 => {
-                let (refs, r, nv) = self.references();
-                let values: Vec<i64> = (0..nv).map(|_| self.rng.int64()).collect();
-                let v = maybe_null(self.rng, &values);
-                self.enter(format!(
-                    "fmi3SetInt64(vr = {}, nvr = {}, values = {}, nValues = {nv})",
-                    shown(r, &refs),
-                    refs.len(),
-                    shown(v, &values)
-                ));
-                let s = unsafe { fmu.fmi3SetInt64(c, r, refs.len(), v, nv) };
-                self.done(s);
-            }
-            8 => {
-                let (refs, r, nv) = self.references();
-                let mut values = vec![0i64; nv];
-                let v = maybe_null_mut(self.rng, &mut values);
-                self.enter(format!(
-                    "fmi3GetInt64(vr = {}, nvr = {}, values = {}, nValues = {nv})",
-                    shown(r, &refs),
-                    refs.len(),
-                    slots(v, nv)
-                ));
-                let s = unsafe { fmu.fmi3GetInt64(c, r, refs.len(), v, nv) };
-                self.done(s);
-            }
+            4 | 5 => self.typed_call(TYPED_FLOAT64, false),
+            6 => self.typed_call(TYPED_FLOAT64, true),
+            7 => self.typed_call(TYPED_INT64, false),
+            8 => self.typed_call(TYPED_INT64, true),
             9 => {
                 let tir_file = self.rng.flag().then_some(130);
                 let (refs, r, nv) = self.references_with(tir_file);
@@ -942,7 +900,10 @@ impl Fuzz3<'_> {
                     }
                 }
             }
-            11 => self.other_type_call(),
+            11 => {
+                let (kind, get) = (self.rng.below(TYPED_OTHERS), self.rng.flag());
+                self.typed_call(kind, get)
+            }
             12 => {
                 let (refs, r, nv) = self.references();
                 let orders: Vec<i32> = (0..refs.len()).map(|_| self.rng.below(4) as i32 - 1).collect();
@@ -1279,13 +1240,13 @@ impl Fuzz3<'_> {
         }
     }
 
-    /// Get or set of a type this FMU has no variables of (or the Int64 and String of the
-    /// ones it has), with values of that type.
-    fn other_type_call(&mut self) {
+    /// Get or set of one type, with values of that type: `kind` below [`TYPED_OTHERS`] is
+    /// a type this FMU has no variables of (Float32, the integers but Int64, Boolean,
+    /// Binary, Clock); [`TYPED_FLOAT64`] and [`TYPED_INT64`] are those of its variables.
+    fn typed_call(&mut self, kind: u64, get: bool) {
         let (fmu, c) = (self.fmu, self.c);
         let (refs, r, nv) = self.references();
         let n = refs.len();
-        let get = self.rng.flag();
         macro_rules! typed {
             ($get:ident, $set:ident, $value:expr) => {{
                 let mut values: Vec<_> = (0..nv).map(|_| $value).collect();
@@ -1310,7 +1271,9 @@ impl Fuzz3<'_> {
                 }
             }};
         }
-        let s = match self.rng.below(11) {
+        let s = match kind {
+            TYPED_FLOAT64 => typed!(fmi3GetFloat64, fmi3SetFloat64, self.rng.real()),
+            TYPED_INT64 => typed!(fmi3GetInt64, fmi3SetInt64, self.rng.int64()),
             0 => typed!(fmi3GetFloat32, fmi3SetFloat32, self.rng.real() as f32),
             1 => typed!(fmi3GetInt8, fmi3SetInt8, self.rng.next() as i8),
             2 => typed!(fmi3GetUInt8, fmi3SetUInt8, self.rng.next() as u8),

@@ -113,6 +113,24 @@ pub fn same_count(values: &str, n_values: usize, n_references: usize) -> CallRes
     }
 }
 
+/// An FMI 3.0 call whose values come with their own count: `call` if it is the count of
+/// the value references, else the error that says they differ. (FMI 2.0 passes one count
+/// for both: its calls go straight to `call`'s body.)
+#[inline]
+pub fn counted(
+    c: *mut c_void,
+    function: &str,
+    n_values: usize,
+    n_references: usize,
+    call: impl FnOnce() -> StatusCode,
+) -> StatusCode {
+    if n_values == n_references {
+        call()
+    } else {
+        with_instance(c, function, |_| same_count("values", n_values, n_references))
+    }
+}
+
 /// Runs `body` on the instance behind `c`, inside the panic boundary, and turns its
 /// result into a status, logging the reason for anything but OK.
 pub fn with_instance(
@@ -507,7 +525,11 @@ pub struct Directional {
     pub knowns: *const u32,
     pub n_knowns: usize,
     pub seed: *const f64,
+    /// FMI 3.0's own count of the seed (FMI 2.0: `n_knowns`).
+    pub n_seed: usize,
     pub sensitivity: *mut f64,
+    /// FMI 3.0's own count of the sensitivity (FMI 2.0: `n_unknowns`).
+    pub n_sensitivity: usize,
 }
 
 pub fn directional_derivative(c: *mut c_void, function: &str, d: Directional) -> StatusCode {
@@ -521,6 +543,8 @@ pub fn directional_derivative(c: *mut c_void, function: &str, d: Directional) ->
         )
     };
     with_instance_logged(c, function, arguments, |instance| unsafe {
+        same_count("seed", d.n_seed, d.n_knowns)?;
+        same_count("sensitivity", d.n_sensitivity, d.n_unknowns)?;
         instance.directional_derivative(
             array(d.unknowns, d.n_unknowns, "unknowns")?,
             array(d.knowns, d.n_knowns, "knowns")?,

@@ -286,7 +286,9 @@ pub extern "C" fn fmi2GetDirectionalDerivative(
         knowns: vKnown_ref,
         n_knowns: nKnown,
         seed: dvKnown,
+        n_seed: nKnown,
         sensitivity: dvUnknown,
+        n_sensitivity: nUnknown,
     };
     b::directional_derivative(c, "fmi2GetDirectionalDerivative", arrays)
 }

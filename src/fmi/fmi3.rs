@@ -210,16 +210,15 @@ pub extern "C" fn fmi3GetFloat64(
     values: *mut fmi3Float64,
     nValues: usize,
 ) -> fmi3Status {
-    if nValues != nValueReferences {
-        return count_mismatch(instance, "fmi3GetFloat64", nValues, nValueReferences);
-    }
-    b::get_real(
-        instance,
-        "fmi3GetFloat64",
-        valueReferences,
-        nValueReferences,
-        values,
-    )
+    b::counted(instance, "fmi3GetFloat64", nValues, nValueReferences, || {
+        b::get_real(
+            instance,
+            "fmi3GetFloat64",
+            valueReferences,
+            nValueReferences,
+            values,
+        )
+    })
 }
 
 #[unsafe(no_mangle)]
@@ -230,28 +229,14 @@ pub extern "C" fn fmi3SetFloat64(
     values: *const fmi3Float64,
     nValues: usize,
 ) -> fmi3Status {
-    if nValues != nValueReferences {
-        return count_mismatch(instance, "fmi3SetFloat64", nValues, nValueReferences);
-    }
-    b::set_real(
-        instance,
-        "fmi3SetFloat64",
-        valueReferences,
-        nValueReferences,
-        values,
-    )
-}
-
-#[cold]
-#[inline(never)]
-fn count_mismatch(
-    instance: fmi3Instance,
-    function: &str,
-    n_values: usize,
-    n_references: usize,
-) -> fmi3Status {
-    with_instance(instance, function, |_| {
-        same_count("values", n_values, n_references)
+    b::counted(instance, "fmi3SetFloat64", nValues, nValueReferences, || {
+        b::set_real(
+            instance,
+            "fmi3SetFloat64",
+            valueReferences,
+            nValueReferences,
+            values,
+        )
     })
 }
 
@@ -269,14 +254,10 @@ pub extern "C" fn fmi3GetInt64(
         move || unsafe { format!("vr = {}, value -> {}", b::listed(vr, nvr), b::listed(values, nvr)) };
     b::with_instance_logged(instance, "fmi3GetInt64", arguments, |instance| unsafe {
         same_count("values", nValues, nvr)?;
-        let refs = b::array(vr, nvr, "valueReferences")?;
-        let values = b::array_mut(values, nvr, "values")?;
-        for (vr, value) in refs.iter().zip(values.iter_mut()) {
-            let mut selector = [0];
-            instance.get_integer(std::slice::from_ref(vr), &mut selector)?;
-            *value = selector[0].into();
-        }
-        Ok(())
+        instance.get_integer(
+            b::array(vr, nvr, "valueReferences")?,
+            b::array_mut(values, nvr, "values")?,
+        )
     })
 }
 
@@ -313,16 +294,15 @@ pub extern "C" fn fmi3GetString(
     values: *mut fmi3String,
     nValues: usize,
 ) -> fmi3Status {
-    if nValues != nValueReferences {
-        return count_mismatch(instance, "fmi3GetString", nValues, nValueReferences);
-    }
-    b::get_string(
-        instance,
-        "fmi3GetString",
-        valueReferences,
-        nValueReferences,
-        values,
-    )
+    b::counted(instance, "fmi3GetString", nValues, nValueReferences, || {
+        b::get_string(
+            instance,
+            "fmi3GetString",
+            valueReferences,
+            nValueReferences,
+            values,
+        )
+    })
 }
 
 #[unsafe(no_mangle)]
@@ -333,16 +313,15 @@ pub extern "C" fn fmi3SetString(
     values: *const fmi3String,
     nValues: usize,
 ) -> fmi3Status {
-    if nValues != nValueReferences {
-        return count_mismatch(instance, "fmi3SetString", nValues, nValueReferences);
-    }
-    b::set_string(
-        instance,
-        "fmi3SetString",
-        valueReferences,
-        nValueReferences,
-        values,
-    )
+    b::counted(instance, "fmi3SetString", nValues, nValueReferences, || {
+        b::set_string(
+            instance,
+            "fmi3SetString",
+            valueReferences,
+            nValueReferences,
+            values,
+        )
+    })
 }
 
 /// Get and set of the types this FMU has no variables of: fine for an empty list of
@@ -694,19 +673,15 @@ pub extern "C" fn fmi3GetDirectionalDerivative(
     sensitivity: *mut fmi3Float64,
     nSensitivity: usize,
 ) -> fmi3Status {
-    if nSeed != nKnowns || nSensitivity != nUnknowns {
-        return with_instance(instance, "fmi3GetDirectionalDerivative", |_| {
-            same_count("seed", nSeed, nKnowns)?;
-            same_count("sensitivity", nSensitivity, nUnknowns)
-        });
-    }
     let arrays = Directional {
         unknowns,
         n_unknowns: nUnknowns,
         knowns,
         n_knowns: nKnowns,
         seed,
+        n_seed: nSeed,
         sensitivity,
+        n_sensitivity: nSensitivity,
     };
     b::directional_derivative(instance, "fmi3GetDirectionalDerivative", arrays)
 }
@@ -888,16 +863,21 @@ pub extern "C" fn fmi3GetOutputDerivatives(
     values: *mut fmi3Float64,
     nValues: usize,
 ) -> fmi3Status {
-    if nValues != nValueReferences {
-        return count_mismatch(instance, "fmi3GetOutputDerivatives", nValues, nValueReferences);
-    }
-    b::get_output_derivatives(
+    b::counted(
         instance,
         "fmi3GetOutputDerivatives",
-        valueReferences,
+        nValues,
         nValueReferences,
-        orders,
-        values,
+        || {
+            b::get_output_derivatives(
+                instance,
+                "fmi3GetOutputDerivatives",
+                valueReferences,
+                nValueReferences,
+                orders,
+                values,
+            )
+        },
     )
 }
 

@@ -56,7 +56,7 @@ impl Category {
 }
 
 /// The importer's logger with the categories switched on.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Logger {
     callback: Callback,
     instance_name: CString,

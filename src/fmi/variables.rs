@@ -197,7 +197,7 @@ const ROLES: [Role; VARIABLES.len()] = {
 
 // The model description's state vector and event indicators are the hybrid tire's.
 const _: () = assert!(CONTINUOUS_STATE_VARIABLES.len() == crate::physics::tire::hybrid::CONTINUOUS_STATES);
-const _: () = assert!(NUMBER_OF_EVENT_INDICATORS == crate::physics::tire::hybrid::GUARDS);
+const _: () = assert!(EVENT_INDICATOR_VARIABLES.len() == crate::physics::tire::hybrid::GUARDS);
 
 /// No signal at this value reference, in the tables below.
 pub const NO_SIGNAL: u8 = u8::MAX;

@@ -245,20 +245,12 @@ impl Instance {
         Ok(())
     }
 
-    /// Back to the start values, start time and the instantiated phase; logging stays.
+    /// Back to the start values, start time and the instantiated phase: a new instance
+    /// of the same interface, logger (its categories stay) and resources folder.
     pub fn reset(&mut self) -> CallResult {
         self.require(Call::Reset)?;
-        let parameters = start_parameters().map_err(Rejection::error)?;
-        self.tire = start_tire(&parameters).map_err(Rejection::error)?;
-        self.parameters = parameters;
-        self.parameters_changed = false;
-        self.normal_load_set = false;
-        self.phase = Phase::Instantiated;
-        self.time = 0.0;
-        self.start_time = 0.0;
-        self.stop_time = None;
-        self.tire_data_file = std::ffi::CString::default();
-        self.set_by_importer = [false; Parameter::COUNT];
+        *self = Instance::new(self.logger.clone(), self.interface, self.resources.clone())
+            .map_err(Rejection::error)?;
         Ok(())
     }
 
@@ -555,14 +547,16 @@ impl Instance {
         true
     }
 
-    pub fn get_integer(&mut self, value_references: &[u32], values: &mut [i32]) -> CallResult {
+    /// The selectors: FMI 2.0 Integers (i32), FMI 3.0 Enumerations (i64).
+    pub fn get_integer<T: From<i32>>(&mut self, value_references: &[u32], values: &mut [T]) -> CallResult {
         self.require(Call::GetValues)?;
         same_length("values", value_references.len(), values.len())?;
         for (&vr, value) in value_references.iter().zip(values.iter_mut()) {
             *value = match lookup(vr, ValueType::Integer)?.role() {
                 Role::FrictionChoice => self.parameters.friction as i32,
                 _ => self.parameters.model as i32,
-            };
+            }
+            .into();
         }
         Ok(())
     }
