@@ -144,6 +144,7 @@ pub fn with_instance(
 /// [`with_instance`] for a call with arguments: after the call succeeds, with logAll on,
 /// the log names the function with `arguments()` (value references, values, times; the
 /// values a get wrote). `arguments` is not called otherwise, so it costs nothing then.
+#[inline]
 pub fn with_instance_logged(
     c: *mut c_void,
     function: &str,
@@ -342,6 +343,7 @@ pub fn get_real(c: *mut c_void, function: &str, vr: *const u32, nvr: usize, valu
     })
 }
 
+#[inline]
 pub fn set_real(c: *mut c_void, function: &str, vr: *const u32, nvr: usize, value: *const f64) -> StatusCode {
     let arguments = move || unsafe { format!("vr = {}, value = {}", listed(vr, nvr), listed(value, nvr)) };
     with_instance_logged(c, function, arguments, |instance| unsafe {
@@ -579,6 +581,7 @@ pub fn get_output_derivatives(
     })
 }
 
+#[inline]
 pub fn set_time(c: *mut c_void, function: &str, time: f64) -> StatusCode {
     with_instance_logged(
         c,
@@ -588,6 +591,7 @@ pub fn set_time(c: *mut c_void, function: &str, time: f64) -> StatusCode {
     )
 }
 
+#[inline]
 pub fn set_continuous_states(c: *mut c_void, function: &str, x: *const f64, nx: usize) -> StatusCode {
     let arguments = move || unsafe { format!("x = {}", listed(x, nx)) };
     with_instance_logged(c, function, arguments, |instance| unsafe {
@@ -604,6 +608,7 @@ pub enum ContinuousValues {
     Nominals,
 }
 
+#[inline]
 pub fn get_continuous_values(
     c: *mut c_void,
     function: &str,

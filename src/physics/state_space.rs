@@ -7,6 +7,32 @@ use super::signals::{DrivingInput, Output, OutputVector};
 /// The most states any model has (RingBody: two contact masses of three states).
 pub const MAX_STATES: usize = 6;
 
+/// `$call` with the const `$n` set to the model's state count `$states` (2, 3 or 4, else
+/// [`MAX_STATES`]): work on fixed-size arrays of the model's own size, unrolled.
+macro_rules! by_state_count {
+    ($states:expr, $n:ident => $call:expr) => {
+        match $states {
+            2 => {
+                const $n: usize = 2;
+                $call
+            }
+            3 => {
+                const $n: usize = 3;
+                $call
+            }
+            4 => {
+                const $n: usize = 4;
+                $call
+            }
+            _ => {
+                const $n: usize = $crate::physics::state_space::MAX_STATES;
+                $call
+            }
+        }
+    };
+}
+pub(crate) use by_state_count;
+
 /// The states of a model; entries past the model's state count stay zero.
 pub type StateVector = SVector<f64, MAX_STATES>;
 /// `u = [vy, steerRate, vsx]`, the inputs that drive the states.
@@ -65,26 +91,55 @@ impl StateSpace {
     /// times per step).
     #[inline]
     pub fn state_rates(&self, x: &StateVector, u: &DrivingVector) -> StateVector {
-        let mut rates = StateVector::zeros();
-        self.write_state_rates(x, u, rates.as_mut_slice());
-        rates
+        let mut rates = [0.0; MAX_STATES];
+        self.write_state_rates(x, u, &mut rates);
+        StateVector::from(rates)
     }
 
-    /// [`StateSpace::state_rates`] written into `rates` (at least the model's states
-    /// long; entries past them are left alone), where they are to be kept: a copy read
-    /// right after they are written one by one would wait for the writes to land.
+    /// [`StateSpace::state_rates`] written into `rates`, where they are to be kept (a
+    /// copy read right after they are written one by one would wait for the writes to
+    /// land); entries past the model's states are left alone.
     #[inline]
-    pub fn write_state_rates(&self, x: &StateVector, u: &DrivingVector, rates: &mut [f64]) {
+    pub fn write_state_rates(&self, x: &StateVector, u: &DrivingVector, rates: &mut [f64; MAX_STATES]) {
         let n = self.states.min(MAX_STATES);
+        by_state_count!(n, N => self.write_sized_state_rates::<N>(n, x, u, rates))
+    }
+
+    /// [`StateSpace::write_state_rates`] for `n` states, unrolled where `n` is `N`.
+    #[inline]
+    fn write_sized_state_rates<const N: usize>(
+        &self,
+        n: usize,
+        x: &StateVector,
+        u: &DrivingVector,
+        rates: &mut [f64; MAX_STATES],
+    ) {
         // Column-major storage: entry (i, j) at i + MAX_STATES j.
         let (a, b) = (self.a.as_slice(), self.b.as_slice());
-        for (i, rate) in rates.iter_mut().enumerate().take(n) {
-            let mut states = a[i] * x[0];
-            for j in 1..n {
-                states += a[i + MAX_STATES * j] * x[j];
+        if n == N {
+            // Column by column over all rows at once: the rows go in pairs, and the rates
+            // are stored as wide as they are read (a wide read of narrow stores waits).
+            // Each rate sums in the same order as a row by row product would.
+            let mut states: [f64; N] = std::array::from_fn(|i| a[i] * x[0]);
+            for j in 1..N {
+                for (i, s) in states.iter_mut().enumerate() {
+                    *s += a[i + MAX_STATES * j] * x[j];
+                }
             }
-            let inputs = b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2];
-            *rate = states + inputs;
+            let inputs: [f64; N] = std::array::from_fn(|i| {
+                b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2]
+            });
+            for ((r, s), i) in rates.iter_mut().zip(states).zip(inputs) {
+                *r = s + i;
+            }
+        } else {
+            for (i, r) in rates.iter_mut().enumerate().take(n) {
+                let mut states = a[i] * x[0];
+                for j in 1..n {
+                    states += a[i + MAX_STATES * j] * x[j];
+                }
+                *r = states + (b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2]);
+            }
         }
     }
 

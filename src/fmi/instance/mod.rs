@@ -177,6 +177,7 @@ impl Instance {
         self.phase = Phase::Fatal;
     }
 
+    #[inline]
     pub fn require(&self, call: Call) -> CallResult {
         call.check(self.phase)
     }
@@ -491,6 +492,7 @@ impl Instance {
         Ok(())
     }
 
+    #[inline]
     pub fn set_real(&mut self, value_references: &[u32], values: &[f64]) -> CallResult {
         if self.set_inputs_fast(value_references, values) {
             return Ok(());

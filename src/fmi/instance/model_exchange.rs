@@ -9,15 +9,15 @@ use crate::fmi::status::{CallResult, Rejection};
 
 impl Instance {
     /// Ok if `call` may be made now on a Model Exchange instance.
+    #[inline]
     fn require_model_exchange(&self, call: Call) -> CallResult {
         if self.interface != Interface::ModelExchange {
-            return Err(Rejection::error(
-                "this is a Model Exchange function; the instance was made for Co-Simulation",
-            ));
+            return Err(not_model_exchange());
         }
         self.require(call)
     }
 
+    #[inline]
     pub fn set_time(&mut self, time: f64) -> CallResult {
         self.require_model_exchange(Call::SetTime)?;
         if !time.is_finite() {
@@ -27,6 +27,7 @@ impl Instance {
         Ok(())
     }
 
+    #[inline]
     pub fn set_continuous_states(&mut self, values: &[f64]) -> CallResult {
         self.require_model_exchange(Call::SetContinuousStates)?;
         let states = state_vector("x", values)?;
@@ -41,6 +42,7 @@ impl Instance {
         Ok(())
     }
 
+    #[inline]
     pub fn get_derivatives(&mut self, values: &mut [f64]) -> CallResult {
         self.require_model_exchange(Call::GetContinuousValues)?;
         let values: &mut ContinuousStates = fixed_length("derivatives", values)?;
@@ -50,6 +52,7 @@ impl Instance {
         Ok(())
     }
 
+    #[inline]
     pub fn get_event_indicators(&mut self, values: &mut [f64]) -> CallResult {
         self.require_model_exchange(Call::GetContinuousValues)?;
         let values: &mut [f64; GUARDS] = fixed_length("eventIndicators", values)?;
@@ -97,22 +100,30 @@ impl Instance {
     }
 }
 
+#[cold]
+#[inline(never)]
+fn not_model_exchange() -> Box<Rejection> {
+    Rejection::error("this is a Model Exchange function; the instance was made for Co-Simulation")
+}
+
 /// An output array of a call, checked for its length.
+#[inline]
 fn fixed_length<'a, const N: usize>(name: &str, values: &'a mut [f64]) -> CallResult<&'a mut [f64; N]> {
     let given = values.len();
-    <&mut [f64; N]>::try_from(values).map_err(|_| {
-        Rejection::error(format!(
-            "{name}: {given} values were asked for, but the FMU has {N}"
-        ))
-    })
+    <&mut [f64; N]>::try_from(values).map_err(|_| wrong_length(name, given, N, "were asked for"))
 }
 
 /// The continuous state vector of a call, checked for its length.
+#[inline]
 fn state_vector<'a>(name: &str, values: &'a [f64]) -> CallResult<&'a ContinuousStates> {
-    <&ContinuousStates>::try_from(values).map_err(|_| {
-        Rejection::error(format!(
-            "{name}: {} values, but the FMU has {CONTINUOUS_STATES} continuous states",
-            values.len()
-        ))
-    })
+    <&ContinuousStates>::try_from(values)
+        .map_err(|_| wrong_length(name, values.len(), CONTINUOUS_STATES, "were given"))
+}
+
+#[cold]
+#[inline(never)]
+fn wrong_length(name: &str, given: usize, expected: usize, what: &str) -> Box<Rejection> {
+    Rejection::error(format!(
+        "{name}: {given} values {what}, but the FMU has {expected}"
+    ))
 }

@@ -49,8 +49,8 @@ mod vocabulary;
 pub use sliding::Events;
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
-    ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, Limits, MAX_BRANCHES,
-    SliderState,
+    ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, InverseLimits, Limits,
+    MAX_BRANCHES, SliderState,
 };
 
 use super::brush::Branch;
@@ -68,15 +68,21 @@ pub struct Friction {
     /// The smallest `phi_i / w_i`: the share of an element's limit below which every branch
     /// sticks.
     first_breakpoint: f64,
-    /// `1 / (phi_i / w_i)^2` by branch: a sticking branch's utilisation per unit of its
-    /// element's.
-    inverse_squared_breakpoints: [f64; MAX_BRANCHES],
+    /// By group and branch, `1 / (phi_i / w_i)^2` (a sticking branch's utilisation per
+    /// unit of its element's) and -1, or 0 and `-inf` where the model has no such group or
+    /// the law no such branch: the event value of a branch while all stick is
+    /// `utilisation * weight + offset` ([`Friction::together_events`]).
+    together_event_weights: [[f64; MAX_BRANCHES]; Group::COUNT],
+    together_event_offsets: [[f64; MAX_BRANCHES]; Group::COUNT],
     /// Which directions this model has an element in.
     present_directions: [bool; Direction::COUNT],
     /// Which directions each [`Group`] of this model has.
     group_members: [[bool; Direction::COUNT]; Group::COUNT],
     /// The elements the model has, with their directions (the first `present_count`).
     present: [PresentElement; Direction::COUNT],
+    /// The same by direction, all zero where the model has none (its force is then zero):
+    /// the events while all stick take every direction without a branch.
+    by_direction: [PresentElement; Direction::COUNT],
     present_count: usize,
     /// By present element: whether its state is driven by no other state at any operating
     /// point. With held inputs such a state moves monotonically towards its equilibrium,
@@ -159,8 +165,23 @@ impl Friction {
             branches: law.branches(),
             inverse_first_breakpoint: 1.0 / first_breakpoint,
             first_breakpoint,
-            inverse_squared_breakpoints: std::array::from_fn(|i| {
-                law.branches().get(i).map_or(0.0, |b| b.breakpoint().powi(-2))
+            together_event_weights: Group::ALL.map(|g| {
+                std::array::from_fn(|i| match law.branches().get(i) {
+                    Some(branch) if g.directions().iter().any(|&d| elements[d as usize].is_some()) => {
+                        branch.breakpoint().powi(-2)
+                    }
+                    _ => 0.0,
+                })
+            }),
+            together_event_offsets: Group::ALL.map(|g| {
+                std::array::from_fn(|i| {
+                    let present = g.directions().iter().any(|&d| elements[d as usize].is_some());
+                    if present && i < law.branches().len() {
+                        -1.0
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                })
             }),
             present_directions: elements.map(|e| e.is_some()),
             present: {
@@ -178,6 +199,14 @@ impl Friction {
                 }
                 present
             },
+            by_direction: std::array::from_fn(|d| {
+                elements[d].map_or(PresentElement::default(), |e| PresentElement {
+                    direction: d,
+                    state: e.state,
+                    stiffness: e.stiffness,
+                    damping: e.damping,
+                })
+            }),
             present_count: elements.iter().flatten().count(),
             all_undriven: undriven[..elements.iter().flatten().count()].iter().all(|&u| u),
             all_rigorous: (0..elements.iter().flatten().count()).all(|e| undriven[e] || lag_bounded[e]),
@@ -240,30 +269,43 @@ impl Friction {
         self.together
     }
 
+    /// `1 / limit` at `load` by direction for the elements the model has, zero for the
+    /// others; `None` if one of their limits is zero (or too small to invert): that
+    /// direction is frictionless and its branches carry no force, which only the law of
+    /// each group in its mode says.
+    #[inline]
+    pub fn inverse_limits(&self, law: &InverseLimits, load: f64) -> Option<[f64; Direction::COUNT]> {
+        law.at(load, &self.present_directions)
+    }
+
     /// The event values (negative while sticking) of every group and branch while each
-    /// branch is with its element and sticks, at states `x` with rates `x_rates` and the
-    /// limits `limits` (all > 0); `-inf` where there is no such group. Branch `i` carries
-    /// `w_i` of its element's force (of the force sticking needs, with a damper) against
-    /// `phi_i` of its limit: its utilisation is the element's over its breakpoint squared.
-    pub fn together_events(&self, limits: &Limits, x: &StateVector, x_rates: &[f64]) -> Events {
+    /// branch is with its element and sticks, at states `x` with rates `x_rates`, with the
+    /// limits given as [`Friction::inverse_limits`]; `-inf` where there is no such group. Branch `i` carries `w_i` of its element's force (of the force sticking
+    /// needs, with a damper) against `phi_i` of its limit: its utilisation is the
+    /// element's over its breakpoint squared.
+    #[inline]
+    pub fn together_events(
+        &self,
+        inverse_limits: &[f64; Direction::COUNT],
+        x: &[f64; MAX_STATES],
+        x_rates: &[f64; MAX_STATES],
+    ) -> Events {
+        // Every direction, those without an element adding zero: no branch, and the sums
+        // stay in registers.
         let mut utilisation = [0.0; Group::COUNT];
-        for e in &self.present[..self.present_count] {
-            let force = e.stiffness * x[e.state] + e.damping * x_rates[e.state];
-            let ratio = force / limits.0[e.direction];
-            utilisation[Direction::ALL[e.direction].group() as usize] += ratio * ratio;
+        for (direction, (e, inverse_limit)) in Direction::ALL
+            .iter()
+            .zip(self.by_direction.iter().zip(inverse_limits))
+        {
+            let ratio = (e.stiffness * x[e.state] + e.damping * x_rates[e.state]) * inverse_limit;
+            utilisation[direction.group() as usize] += ratio * ratio;
         }
-        let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
-        for group in self.groups() {
-            let g = group as usize;
-            let branches = self.branches.len();
-            for (event, scale) in events[g][..branches]
-                .iter_mut()
-                .zip(&self.inverse_squared_breakpoints)
-            {
-                *event = utilisation[g] * scale - 1.0;
-            }
-        }
-        events
+        // Without a branch per entry: the weights and offsets say which exist.
+        std::array::from_fn(|g| {
+            std::array::from_fn(|i| {
+                utilisation[g] * self.together_event_weights[g][i] + self.together_event_offsets[g][i]
+            })
+        })
     }
 
     /// Whether any element has a damper (DDT): its sliding force is then part of the

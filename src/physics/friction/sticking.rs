@@ -6,33 +6,10 @@
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::lu;
 use crate::physics::signals::DrivingInput;
-use crate::physics::state_space::{DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector};
+use crate::physics::state_space::{
+    DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector, by_state_count,
+};
 use crate::physics::stepper::{Blocks, StepKey, StepMap};
-
-/// `$call` with the const `$n` set to the model's state count `$states` (2, 3 or 4, else
-/// [`MAX_STATES`]): the bounds work on fixed-size arrays of the model's own size.
-macro_rules! by_state_count {
-    ($states:expr, $n:ident => $call:expr) => {
-        match $states {
-            2 => {
-                const $n: usize = 2;
-                $call
-            }
-            3 => {
-                const $n: usize = 3;
-                $call
-            }
-            4 => {
-                const $n: usize = 4;
-                $call
-            }
-            _ => {
-                const $n: usize = MAX_STATES;
-                $call
-            }
-        }
-    };
-}
 
 /// What the sticking check needs of an element.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

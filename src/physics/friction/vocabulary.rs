@@ -142,6 +142,51 @@ impl Limits {
     }
 }
 
+/// The friction limits' inverses as the load changes: what [`Limits::at`] needs of the
+/// parameters, inverted once per tire, so that a load costs one division, not one per
+/// direction (a solver changes the load at every evaluation, and divisions queue).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InverseLimits {
+    inverse_nominal_load: f64,
+    sensitivity: f64,
+    /// `1 / (mu lever)` by direction: the limit over `mu(Fz)/mu Fz`.
+    inverse_levers: [f64; Direction::COUNT],
+}
+
+impl InverseLimits {
+    pub fn new(p: &Parameters) -> Self {
+        let (mu_x, mu_y) = (
+            p.get(Parameter::LongitudinalFriction),
+            p.get(Parameter::LateralFriction),
+        );
+        let levers = [mu_x, mu_y, mu_y * p.get(Parameter::BoreRadius)];
+        InverseLimits {
+            inverse_nominal_load: 1.0 / p.get(Parameter::NominalLoad),
+            sensitivity: p.get(Parameter::FrictionLoadSensitivity),
+            inverse_levers: levers.map(|lever| 1.0 / lever),
+        }
+    }
+
+    /// `1 / limit` at `load` of the directions in `present` (zero for the others), as
+    /// [`Limits::at`] up to rounding, or `None` if one of them is not finite and positive
+    /// (a zero limit, or one too small to invert).
+    #[inline]
+    pub fn at(&self, load: f64, present: &[bool; Direction::COUNT]) -> Option<[f64; Direction::COUNT]> {
+        let load = load.max(0.0);
+        let factor = (1.0 + self.sensitivity * (load * self.inverse_nominal_load - 1.0)).max(0.0);
+        let inverse_scale = 1.0 / (factor * load);
+        let mut inverse = [0.0; Direction::COUNT];
+        let mut valid = true;
+        for ((inverse, &present), inverse_lever) in inverse.iter_mut().zip(present).zip(self.inverse_levers) {
+            if present {
+                *inverse = inverse_lever * inverse_scale;
+                valid &= inverse.is_finite() && *inverse > 0.0;
+            }
+        }
+        valid.then_some(inverse)
+    }
+}
+
 /// Each branch's deflection and whether its groups slide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SliderState {

@@ -18,9 +18,9 @@
 
 use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire};
 use crate::physics::friction::{
-    Direction, EVENT_TOLERANCE, Events, Friction, Group, Limits, MAX_BRANCHES, SliderState,
+    Direction, EVENT_TOLERANCE, Events, Group, InverseLimits, Limits, MAX_BRANCHES, SliderState,
 };
-use crate::physics::parameters::Parameter;
+use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{Input, OutputVector};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateVector};
 use crate::physics::stepper::OperatingPoint;
@@ -41,14 +41,24 @@ pub struct Evaluation {
     pub(super) valid: bool,
     rates: ContinuousStates,
     guards: Guards,
+    /// The load the limits below were made for (its bits; NaN's, which no input is, before
+    /// the first), and [`Friction::inverse_limits`](crate::physics::friction::Friction::inverse_limits) there: a solver evaluates at one load
+    /// many times.
+    limits_load: u64,
+    inverse_limits: Option<[f64; Direction::COUNT]>,
+    limit_law: InverseLimits,
 }
 
-impl Default for Evaluation {
-    fn default() -> Self {
+impl Evaluation {
+    /// Nothing evaluated yet, for a tire of parameters `p`.
+    pub fn new(p: &Parameters) -> Self {
         Evaluation {
             valid: false,
             rates: [0.0; CONTINUOUS_STATES],
             guards: [NO_GUARD; GUARDS],
+            limits_load: f64::NAN.to_bits(),
+            inverse_limits: None,
+            limit_law: InverseLimits::new(p),
         }
     }
 }
@@ -56,19 +66,28 @@ impl Default for Evaluation {
 impl Evaluation {
     /// The guards of the groups' event values (`-inf` where there is no such group, or no
     /// events at all off the ground) and of the load; the evaluation is then complete.
+    #[inline]
     fn write_guards(&mut self, events: Option<&Events>, load: f64) {
-        self.guards = [NO_GUARD; GUARDS];
-        for (g, group) in events.into_iter().flatten().enumerate() {
-            for (i, &event) in group.iter().enumerate() {
-                if event > f64::NEG_INFINITY {
-                    self.guards[g * MAX_BRANCHES + i] = guard(event);
+        match events {
+            Some(events) => {
+                for (guard, &event) in self.guards.iter_mut().zip(events.as_flattened()) {
+                    // A select, not a branch: the loop stays straight.
+                    *guard = if event > NO_EVENT {
+                        group_guard(event)
+                    } else {
+                        NO_GUARD
+                    };
                 }
             }
+            None => self.guards = [NO_GUARD; GUARDS],
         }
         self.guards[GUARDS - 1] = load;
         self.valid = true;
     }
 }
+
+/// The event value of a group or branch that does not exist.
+const NO_EVENT: f64 = f64::NEG_INFINITY;
 
 /// The guard of a group or branch the tire does not have: it never crosses.
 const NO_GUARD: f64 = 1.0;
@@ -79,7 +98,7 @@ const fn offset_entry(d: usize, i: usize) -> usize {
 }
 
 /// The guard of a group whose event value (negative while it keeps its mode) is `event`.
-fn guard(event: f64) -> f64 {
+fn group_guard(event: f64) -> f64 {
     0.5 * EVENT_TOLERANCE - event
 }
 
@@ -106,7 +125,10 @@ impl Tire {
             return Err(format!("continuous state {} is {}: not finite", k + 1, z[k]));
         }
         let n = self.rolling.affine().states();
-        self.states.as_mut_slice()[..n].copy_from_slice(&z[..n]);
+        // Every slot at once, those past the model's states kept zero (a copy of `n` entries
+        // would be a call).
+        let states: &[f64; MAX_STATES] = z[..MAX_STATES].try_into().expect("the layout");
+        self.states = StateVector::from(std::array::from_fn(|j| if j < n { states[j] } else { 0.0 }));
         if let Some(friction) = self.friction.as_mut() {
             let current = friction.state();
             let branches = friction.branches.len();
@@ -171,23 +193,36 @@ impl Tire {
             e.write_guards(None, load);
             return;
         }
-        let limits = self.friction.as_ref().map(|_| self.limits());
-        if let (Some(friction), Some(limits)) = (&self.friction, &limits)
-            && !together_at(friction, limits)
-        {
-            return self.evaluate_modes();
+        // The inverse limits in hand, not read back from where they are kept.
+        let mut inverse_limits = None;
+        if let Some(friction) = &self.friction {
+            let e = &mut self.hybrid;
+            inverse_limits = if e.limits_load == load.to_bits() {
+                e.inverse_limits
+            } else {
+                let made = friction.inverse_limits(&e.limit_law, load);
+                (e.inverse_limits, e.limits_load) = (made, load.to_bits());
+                made
+            };
+            if !friction.together() || inverse_limits.is_none() {
+                return self.evaluate_modes();
+            }
         }
-        // Every branch with its element: the model's own linear system, its rates written
-        // where they are kept.
+        // Every branch with its element and every limit acting: the model's own linear
+        // system, its rates written where they are kept; each group's guard follows from
+        // its elements' forces.
         let system = {
             let point = self.operating_point(self.input(Input::Vx), load);
             self.rolling.dynamics_at(point)
         };
         let e = &mut self.hybrid;
         e.rates = [0.0; CONTINUOUS_STATES];
-        system.write_state_rates(&x, &u, &mut e.rates[..MAX_STATES]);
-        let events = (self.friction.as_ref().zip(limits.as_ref()))
-            .map(|(friction, limits)| friction.together_events(limits, &x, &e.rates[..MAX_STATES]));
+        let x_rates: &mut [f64; MAX_STATES] = (&mut e.rates[..MAX_STATES]).try_into().expect("the layout");
+        system.write_state_rates(&x, &u, x_rates);
+        let events = (self.friction.as_ref().zip(inverse_limits.as_ref())).map(|(friction, inverse)| {
+            let x: &[f64; MAX_STATES] = x.as_slice().try_into().expect("the layout");
+            friction.together_events(inverse, x, x_rates)
+        });
         e.write_guards(events.as_ref(), load);
     }
 
@@ -372,21 +407,4 @@ impl Tire {
         let rates = std::array::from_fn(|k| (plus.0[k] - minus.0[k]) / (2.0 * delta));
         (rates, (plus.1 - minus.1) / (2.0 * delta))
     }
-
-    /// The friction limits at the current load.
-    fn limits(&self) -> Limits {
-        Limits::at(&self.parameters, self.input(Input::Fz))
-    }
-}
-
-/// Whether every branch is with its element and sticks, and every limit acts: the
-/// model's linear system moves the tire, and each group's guard follows from its
-/// element's force ([`Friction::together_events`]).
-fn together_at(friction: &Friction, limits: &Limits) -> bool {
-    friction.together()
-        && friction
-            .elements
-            .iter()
-            .zip(limits.0)
-            .all(|(element, limit)| element.is_none() || limit > 0.0)
 }

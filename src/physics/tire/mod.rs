@@ -133,6 +133,7 @@ impl Tire {
         )
         .map(|f| f.with_passive_energy(model.passive().then(|| model.energy_weights(&parameters))));
         let rest = (0.0, 0.0);
+        let hybrid = hybrid::Evaluation::new(&parameters);
         Ok(Self {
             load_law,
             point: (
@@ -150,7 +151,7 @@ impl Tire {
             ramping: false,
             step_made_for: StepKey::NONE,
             outputs: None,
-            hybrid: hybrid::Evaluation::default(),
+            hybrid,
             friction,
         })
     }
