@@ -219,3 +219,54 @@ impl SliderState {
         self.sliding.iter().flatten().any(|&s| s)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inverse_limits_are_the_limits_inverted() {
+        let mut p = Parameters::default();
+        for (sensitivity, bore) in [(0.0, 0.1), (-0.3, 0.05), (0.2, 0.3)] {
+            p.set(Parameter::FrictionLoadSensitivity, sensitivity).unwrap();
+            p.set(Parameter::BoreRadius, bore).unwrap();
+            let law = InverseLimits::new(&p);
+            for load in [1e-3, 1.0, 350.0, 4000.0, 12_345.6, 1e6] {
+                let limits = Limits::at(&p, load);
+                let inverse = law.at(load, &[true; Direction::COUNT]);
+                if limits.0[0] == 0.0 {
+                    // The load sensitivity took mu(Fz) to zero.
+                    assert_eq!(inverse, None, "{load} N");
+                    continue;
+                }
+                let inverse = inverse.expect("every limit acts");
+                for (inverse, limit) in inverse.iter().zip(limits.0) {
+                    assert!(
+                        (inverse * limit - 1.0).abs() < 1e-15,
+                        "{load} N: {inverse} * {limit}"
+                    );
+                }
+                // A direction the model lacks is zero, whatever its limit.
+                let lateral_only = law.at(load, &[false, true, false]).expect("the lateral acts");
+                assert_eq!(lateral_only[0], 0.0);
+                assert_eq!(lateral_only[2], 0.0);
+                assert!((lateral_only[1] * limits.0[1] - 1.0).abs() < 1e-15);
+            }
+        }
+    }
+
+    #[test]
+    fn a_limit_that_cannot_be_inverted_gives_none() {
+        let p = Parameters::default();
+        let law = InverseLimits::new(&p);
+        for load in [0.0, -5.0, 1e-320] {
+            assert_eq!(law.at(load, &[true; Direction::COUNT]), None, "{load} N");
+        }
+        let mut frictionless = p.clone();
+        frictionless.set(Parameter::LongitudinalFriction, 0.0).unwrap();
+        let law = InverseLimits::new(&frictionless);
+        assert_eq!(law.at(4000.0, &[true, true, false]), None);
+        // The longitudinal direction absent, its zero limit does not matter.
+        assert!(law.at(4000.0, &[false, true, true]).is_some());
+    }
+}
