@@ -42,8 +42,9 @@ pub struct Evaluation {
     rates: ContinuousStates,
     guards: Guards,
     /// The load the limits below were made for (its bits; NaN's, which no input is, before
-    /// the first), and [`Friction::inverse_limits`](crate::physics::friction::Friction::inverse_limits) there: a solver evaluates at one load
-    /// many times.
+    /// the first), and the limits' inverses there
+    /// ([`Friction::inverse_limits`](crate::physics::friction::Friction::inverse_limits)):
+    /// a solver evaluates at one load many times.
     limits_load: u64,
     inverse_limits: Option<[f64; Direction::COUNT]>,
     limit_law: InverseLimits,
@@ -61,9 +62,7 @@ impl Evaluation {
             limit_law: InverseLimits::new(p),
         }
     }
-}
 
-impl Evaluation {
     /// The guards of the groups' event values (`-inf` where there is no such group, or no
     /// events at all off the ground) and of the load; the evaluation is then complete.
     #[inline]
