@@ -16,7 +16,7 @@ use crate::{Description, MODEL_DESCRIPTION, Unknown, Variable};
 /// FMI 2.0 interface attributes and their FMI 3.0 names; the others have no FMI 3.0
 /// counterpart (canInterpolateInputs: FMI 3.0 has no input derivatives) or are written
 /// below.
-const RENAMED: [(&str, &str); 5] = [
+const RENAMED: [(&str, &str); 6] = [
     ("modelIdentifier", "modelIdentifier"),
     (
         "canHandleVariableCommunicationStepSize",
@@ -25,6 +25,7 @@ const RENAMED: [(&str, &str); 5] = [
     ("maxOutputDerivativeOrder", "maxOutputDerivativeOrder"),
     ("canGetAndSetFMUstate", "canGetAndSetFMUState"),
     ("canSerializeFMUstate", "canSerializeFMUState"),
+    ("providesDirectionalDerivative", "providesDirectionalDerivatives"),
 ];
 
 fn attributes(pairs: &[(&str, String)]) -> String {
@@ -53,9 +54,6 @@ fn interface(tag: &str, fmi2: &[(String, String)], extra: &[(&str, String)]) -> 
     for (key, value) in fmi2 {
         if let Some((_, new)) = RENAMED.iter().find(|(old, _)| old == key) {
             pairs.push((new, value.clone()));
-        }
-        if key == "providesDirectionalDerivative" {
-            pairs.push(("providesDirectionalDerivatives", value.clone()));
         }
         if key == "completedIntegratorStepNotNeeded" {
             pairs.push(("needsCompletedIntegratorStep", (value != "true").to_string()));

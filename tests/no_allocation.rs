@@ -23,6 +23,8 @@ use tirelag::fmi::fmi3::*;
 
 mod support;
 
+use support::vr;
+
 /// Counts allocations (and reallocations) made on a thread while it is watching.
 struct CountingAllocator;
 
@@ -68,23 +70,12 @@ fn allocations_in(body: impl FnOnce()) -> u64 {
     ALLOCATIONS.with(Cell::get)
 }
 
-const INPUTS: [u32; 5] = [1, 2, 3, 4, 5];
-const OUTPUTS: [u32; 9] = [11, 12, 13, 14, 15, 16, 17, 18, 19];
-const TIRE_MODEL: u32 = 100;
-const FRICTION: u32 = 121;
-const MU: [u32; 2] = [122, 123];
+const INPUTS: [u32; 5] = [vr::VX, vr::VY, vr::STEER_RATE, vr::VSX, vr::FZ];
+const OUTPUTS: [u32; 9] = vr::OUTPUTS;
+const TIRE_MODEL: u32 = vr::MODEL;
+const FRICTION: u32 = vr::FRICTION;
+const MU: [u32; 2] = [vr::MU_X, vr::MU_Y];
 const OK: i32 = fmi2Status_fmi2OK as i32;
-
-fn inputs_at(k: usize) -> [f64; 5] {
-    let t = k as f64 * 1e-3;
-    [
-        10.0 + 1e-3 * (k % 1000) as f64,
-        0.1 * t.sin(),
-        0.05 * t.cos(),
-        0.01 * t.sin(),
-        50_000.0 * (1.0 + 0.02 * (2.0 * t).sin()),
-    ]
-}
 
 /// The calls of a step and of an evaluation, in one FMI version.
 trait Api {
@@ -345,7 +336,7 @@ fn steps_allocate_nothing<I: Api>() {
         for (friction, mu, h) in settings {
             let name = format!("no_allocation_{}_{model}_{friction}_{h}", I::NAME);
             let c = I::initialised(&name, false, model, friction, mu);
-            let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
+            let table = support::yardstick_inputs(true, 10_001, 1e-3);
             let mut outputs = [0.0; 9];
             let mut step = |k: usize| {
                 I::set_inputs(c, &table[k]);
@@ -385,7 +376,7 @@ fn evaluations_allocate_nothing<I: Api>() {
             let name = format!("no_allocation_me_{}_{model}_{friction}_{mu:?}", I::NAME);
             let c = I::initialised(&name, true, model, friction, mu);
             let h = 1e-4;
-            let table: Vec<[f64; 5]> = (0..10_001).map(inputs_at).collect();
+            let table = support::yardstick_inputs(true, 10_001, 1e-3);
             let (mut x, mut dx) = ([0.0; STATES], [0.0; STATES]);
             let (mut before, mut after) = ([0.0; INDICATORS], [0.0; INDICATORS]);
             let mut events = 0;

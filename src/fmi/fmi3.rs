@@ -13,9 +13,7 @@
 use std::ffi::c_char;
 use std::path::PathBuf;
 
-use super::boundary::{
-    self as b, ContinuousValues, Directional, Instantiation, out, same_count, with_instance,
-};
+use super::boundary::{self as b, ContinuousValues, Directional, Instantiation, out, with_instance};
 use super::instance::{Instance, Interface};
 use super::logger::Callback;
 use super::state_machine::Call;
@@ -146,7 +144,7 @@ pub extern "C" fn fmi3InstantiateScheduledExecution(
         },
         logging_on: loggingOn,
         resources: None,
-        refusal: Some("this FMU provides Co-Simulation and Model Exchange, not Scheduled Execution".into()),
+        refusal: Some(NO_SCHEDULED_EXECUTION.into()),
     })
 }
 
@@ -252,12 +250,13 @@ pub extern "C" fn fmi3GetInt64(
     let (vr, nvr) = (valueReferences, nValueReferences);
     let arguments =
         move || unsafe { format!("vr = {}, value -> {}", b::listed(vr, nvr), b::listed(values, nvr)) };
-    b::with_instance_logged(instance, "fmi3GetInt64", arguments, |instance| unsafe {
-        same_count("values", nValues, nvr)?;
-        instance.get_integer(
-            b::array(vr, nvr, "valueReferences")?,
-            b::array_mut(values, nvr, "values")?,
-        )
+    b::counted(instance, "fmi3GetInt64", nValues, nvr, || {
+        b::with_instance_logged(instance, "fmi3GetInt64", arguments, |instance| unsafe {
+            instance.get_integer(
+                b::array(vr, nvr, "valueReferences")?,
+                b::array_mut(values, nvr, "values")?,
+            )
+        })
     })
 }
 
@@ -272,17 +271,19 @@ pub extern "C" fn fmi3SetInt64(
     let (vr, nvr) = (valueReferences, nValueReferences);
     let arguments =
         move || unsafe { format!("vr = {}, value = {}", b::listed(vr, nvr), b::listed(values, nvr)) };
-    b::with_instance_logged(instance, "fmi3SetInt64", arguments, |instance| unsafe {
-        same_count("values", nValues, nvr)?;
-        let given = b::array(values, nvr, "values")?;
-        let selectors = given
-            .iter()
-            .map(|&v| {
-                i32::try_from(v)
-                    .map_err(|_| Rejection::error(format!("value {v} is not one of the enumeration's items")))
-            })
-            .collect::<CallResult<Vec<i32>>>()?;
-        instance.set_integer(b::array(vr, nvr, "valueReferences")?, &selectors)
+    b::counted(instance, "fmi3SetInt64", nValues, nvr, || {
+        b::with_instance_logged(instance, "fmi3SetInt64", arguments, |instance| unsafe {
+            let given = b::array(values, nvr, "values")?;
+            let selectors = given
+                .iter()
+                .map(|&v| {
+                    i32::try_from(v).map_err(|_| {
+                        Rejection::error(format!("value {v} is not one of the enumeration's items"))
+                    })
+                })
+                .collect::<CallResult<Vec<i32>>>()?;
+            instance.set_integer(b::array(vr, nvr, "valueReferences")?, &selectors)
+        })
     })
 }
 
@@ -438,6 +439,8 @@ const NO_DEPENDENCIES: &str = "variable dependencies are not provided (providesP
                                ModelStructure lists them";
 const NO_CONFIGURATION: &str = "this FMU has no structural parameters, so no configuration mode";
 const NO_CLOCKS: &str = "this FMU has no clocks";
+const NO_SCHEDULED_EXECUTION: &str =
+    "this FMU provides Co-Simulation and Model Exchange, not Scheduled Execution";
 
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi3GetNumberOfVariableDependencies(
@@ -592,11 +595,7 @@ pub extern "C" fn fmi3ActivateModelPartition(
     _clockReference: fmi3ValueReference,
     _activationTime: fmi3Float64,
 ) -> fmi3Status {
-    b::not_supported(
-        instance,
-        "fmi3ActivateModelPartition",
-        "this FMU provides Co-Simulation and Model Exchange, not Scheduled Execution",
-    )
+    b::not_supported(instance, "fmi3ActivateModelPartition", NO_SCHEDULED_EXECUTION)
 }
 
 #[unsafe(no_mangle)]

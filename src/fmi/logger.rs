@@ -131,13 +131,13 @@ pub(super) fn send(
     category: Category,
     message: &str,
 ) {
-    let category = CString::new(category.name()).unwrap_or_default();
+    // The strings are made only for a callback that is there (FMI 3.0 allows none).
     match callback {
         Callback::Fmi2 {
             logger: Some(logger),
             environment,
         } => {
-            let message = escape_message(message);
+            let (category, message) = (c_text(category.name()), escape_message(message));
             // SAFETY: the importer gave this callback for exactly this call; every string
             // is a valid NUL-terminated C string that outlives the call.
             unsafe {
@@ -154,7 +154,7 @@ pub(super) fn send(
             log_message: Some(log_message),
             environment,
         } => {
-            let message = CString::new(message.replace('\0', " ")).expect("NUL bytes were replaced");
+            let (category, message) = (c_text(category.name()), c_text(message));
             // SAFETY: as above.
             unsafe {
                 log_message(
@@ -167,6 +167,11 @@ pub(super) fn send(
         }
         _ => {}
     }
+}
+
+/// `text` as a C string, a NUL byte in it (which would end the string) made a space.
+fn c_text(text: &str) -> CString {
+    CString::new(text.replace('\0', " ")).expect("NUL bytes were replaced")
 }
 
 #[cfg(test)]

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import fmi4_common as fc
+from fmi4_common import N_INDICATORS, N_STATES, STATE_NAMES  # noqa: F401  (also as f3.N_STATES, ...)
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -33,10 +34,6 @@ BINARY3 = "binaries/x86_64-linux/TireLag.so"
 
 FMI3_OK, FMI3_WARNING, FMI3_DISCARD, FMI3_ERROR = 0, 1, 2, 3
 
-N_STATES = 18
-N_INDICATORS = 9
-STATE_NAMES = ([f"tireState{i}" for i in range(1, 7)]
-               + [f"sliderOffset{d}{i}" for d in ("X", "Y", "Psi") for i in range(1, 5)])
 STATE_VRS = list(range(200, 206)) + list(range(210, 222))
 DERIVATIVE_VRS = [vr + 100 for vr in STATE_VRS]
 INDICATOR_NAMES = ([f"guardPlanar{i}" for i in range(1, 5)] + [f"guardYaw{i}" for i in range(1, 5)]

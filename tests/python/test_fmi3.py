@@ -45,7 +45,6 @@ import json
 import math
 import subprocess
 import sys
-import time
 import zipfile
 import xml.etree.ElementTree as ET
 
@@ -370,46 +369,17 @@ def test_simulate_fmu_cosimulation_runs_and_equals_fmi2(fmu3, fmu2):
 def run_me3(md, unzipdir, case, solver):
     """fmpy simulate_fmu, Model Exchange, on the FMI 3.0 FMU through an FMU3CountingModel
     (as test_model_exchange.run_me). Returns (result, fmi3EnterEventMode calls, seconds)."""
-    from fmpy import simulate_fmu
-
     fmu = f3.new_model3(md, unzipdir, name=f"me3-{case!r}")
-    if solver == "CVode":
-        options = dict(solver="CVode", relative_tolerance=tme.CVODE_RTOL, output_interval=tme.OUTPUT_INTERVAL)
-    else:
-        options = dict(solver="Euler", step_size=tme.EULER_STEP, output_interval=tme.EULER_STEP)
-    start = time.perf_counter()
-    try:
-        result = simulate_fmu(unzipdir, model_description=md, fmu_instance=fmu,
-                              fmi_type="ModelExchange", stop_time=case.stop, input=case.signals,
-                              start_values=case.start_values(), output=tme.LOADS, record_events=False,
-                              **options)
-    finally:
-        fmu.freeInstance()
+    result, seconds = tme.simulate_me(md, unzipdir, case, solver, fmu)
     assert not fmu.log.errors(), fmu.log.text()
-    return result, fmu.n_events, time.perf_counter() - start
+    return result, fmu.n_events, seconds
 
 
 def compare3(case, solver, md, unzipdir):
     """test_model_exchange.compare on the FMI 3.0 FMU: ME (solver) against CS (both
     through fmpy simulate_fmu), the event bound and the agreement on the 10 ms grid (input
     jump times left out). Returns (t, ME loads, CS loads)."""
-    cs = tme.run_cs(md, unzipdir, case)
-    me, n_events, seconds = run_me3(md, unzipdir, case, solver)
-    t, Y_me, Y_cs = tme.at_common_times(case, me, cs)
-    err = np.abs(Y_me - Y_cs) / case.scales
-    tol = tme.ME_TOLERANCE if solver == "CVode" else tme.EULER_TOLERANCE
-    worst = np.unravel_index(np.argmax(err), err.shape)
-    print(f"\nFMI 3 {case!r} {solver}: {n_events} events (bound {case.event_bound()}; "
-          f"{len(case.jumps)} input jumps), max |ME - CS| = {err.max():.3g} of the friction scale "
-          f"({tme.LOADS[worst[1]]} at t = {t[worst[0]]:.3f} s), {seconds:.2f} s")
-    assert n_events >= len(case.jumps), f"{n_events} events: fewer than the {len(case.jumps)} input jumps"
-    assert n_events <= case.event_bound(), (
-        f"{case!r} {solver}: {n_events} events, more than {case.event_bound()} (chattering?)")
-    assert np.all(np.isfinite(Y_me)), f"{case!r} {solver}: non-finite ME outputs"
-    assert err.max() <= tol, (
-        f"{case!r} {solver}: |ME - CS| = {err.max():.3g} of the friction scale > {tol:g}, at t = "
-        f"{t[worst[0]]:.4f} s on {tme.LOADS[worst[1]]}: ME {Y_me[worst]!r}, CS {Y_cs[worst]!r}")
-    return t, Y_me, Y_cs
+    return tme.compare(case, solver, md, unzipdir, run=run_me3, label="FMI 3 ", events_cover_jumps=True)
 
 
 @pytest.mark.parametrize("law", LAWS)

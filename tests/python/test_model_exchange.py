@@ -57,6 +57,7 @@ import pytest
 
 import friction_reference as fr
 import harness
+from fmi4_common import N_INDICATORS, N_STATES, STATE_NAMES
 import reference as ref
 from conftest import REPO, Tire, seed
 
@@ -65,10 +66,6 @@ sys.path.insert(0, str(EXAMPLES))
 
 import wheel_loader_steering as loader  # noqa: E402
 
-N_STATES = 18
-N_INDICATORS = 9
-STATE_NAMES = ([f"tireState{i}" for i in range(1, 7)]
-               + [f"sliderOffset{d}{i}" for d in ("X", "Y", "Psi") for i in range(1, 5)])
 LOADS = ["Fx", "Fy", "Mz", "My"]
 LAWS = ["Unlimited", "Coulomb", "Brush"]
 SOLVERS = ["CVode", "Euler"]
@@ -274,11 +271,18 @@ def run_cs(md, unzipdir, case):
 def run_me(md, unzipdir, case, solver):
     """fmpy simulate_fmu, Model Exchange, through a FMU2CountingModel instance.
     Returns (result, number of fmi2EnterEventMode calls, seconds)."""
-    from fmpy import simulate_fmu
-
     if md.modelExchange is None:
         pytest.fail("the FMU declares no <ModelExchange> (SPEC 7b): rebuild it")
     fmu = me_instance(md, unzipdir, name=f"me-{case!r}")
+    result, seconds = simulate_me(md, unzipdir, case, solver, fmu)
+    return result, fmu.n_events, seconds
+
+
+def simulate_me(md, unzipdir, case, solver, fmu):
+    """fmpy simulate_fmu, Model Exchange, with `solver` (CVode or Euler) on the instance
+    `fmu` of either FMI version, freed after. Returns (result, seconds)."""
+    from fmpy import simulate_fmu
+
     if solver == "CVode":
         options = dict(solver="CVode", relative_tolerance=CVODE_RTOL, output_interval=OUTPUT_INTERVAL)
     else:
@@ -291,7 +295,7 @@ def run_me(md, unzipdir, case, solver):
                               **options)
     finally:
         fmu.freeInstance()
-    return result, fmu.n_events, time.perf_counter() - start
+    return result, time.perf_counter() - start
 
 
 def at_common_times(case, me, cs):
@@ -326,19 +330,22 @@ def at_common_times(case, me, cs):
     return grid[ok], Y_me, Y_cs
 
 
-def compare(case, solver, md, unzipdir):
-    """Run the case through ME (solver) and CS; check the event bound and the agreement.
-    Returns (t, ME loads, CS loads) on the common grid."""
+def compare(case, solver, md, unzipdir, run=run_me, label="", events_cover_jumps=False):
+    """Run the case through ME (solver, by `run`) and CS; check the event bound and the
+    agreement (and, with `events_cover_jumps`, an event at least per input jump). `label`
+    opens the printed line. Returns (t, ME loads, CS loads) on the common grid."""
     cs = run_cs(md, unzipdir, case)
-    me, n_events, seconds = run_me(md, unzipdir, case, solver)
+    me, n_events, seconds = run(md, unzipdir, case, solver)
     t, Y_me, Y_cs = at_common_times(case, me, cs)
     err = np.abs(Y_me - Y_cs) / case.scales
     tol = ME_TOLERANCE if solver == "CVode" else EULER_TOLERANCE
     worst = np.unravel_index(np.argmax(err), err.shape)
-    print(f"\n{case!r} {solver}: {n_events} events (bound {case.event_bound()}; "
+    print(f"\n{label}{case!r} {solver}: {n_events} events (bound {case.event_bound()}; "
           f"{len(case.jumps)} input jumps), max |ME - CS| = "
           f"{err.max():.3g} of the friction scale ({LOADS[worst[1]]} at t = {t[worst[0]]:.3f} s), "
           f"{seconds:.2f} s")
+    if events_cover_jumps:
+        assert n_events >= len(case.jumps), f"{n_events} events: fewer than the {len(case.jumps)} input jumps"
     assert n_events <= case.event_bound(), (
         f"{case!r} {solver}: {n_events} events, more than {case.event_bound()} (chattering?)")
     assert np.all(np.isfinite(Y_me)), f"{case!r} {solver}: non-finite ME outputs"

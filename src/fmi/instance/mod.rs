@@ -339,6 +339,15 @@ impl Instance {
         if refs.len() != values.len() || self.parameters_changed || !Call::GetValues.allows(self.phase) {
             return false;
         }
+        // The outputs are made only for a read of outputs (not of states, parameters, ...).
+        let first_is_output = refs.first().is_none_or(|&vr| {
+            OUTPUT_BY_VALUE_REFERENCE
+                .get(vr as usize)
+                .is_some_and(|&output| output != NO_SIGNAL)
+        });
+        if !first_is_output {
+            return false;
+        }
         let outputs = self.tire.outputs_ref();
         // All outputs in their declared order, as importers usually ask: one copy.
         if let Ok(refs) = <&[u32; Output::COUNT]>::try_from(refs)

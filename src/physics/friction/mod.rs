@@ -46,7 +46,7 @@ mod sticking;
 mod vocabulary;
 
 /// Event values by group and branch.
-pub use sliding::Events;
+pub use sliding::{Events, NO_EVENT};
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
     ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, InverseLimits, Limits,
@@ -160,53 +160,46 @@ impl Friction {
             .iter()
             .map(Branch::breakpoint)
             .fold(f64::INFINITY, f64::min);
+        let by_direction: [PresentElement; Direction::COUNT] = std::array::from_fn(|d| {
+            elements[d].map_or(PresentElement::default(), |e| PresentElement {
+                direction: d,
+                state: e.state,
+                stiffness: e.stiffness,
+                damping: e.damping,
+            })
+        });
+        let group_members = Group::ALL.map(|g| {
+            let mut members = [false; Direction::COUNT];
+            for &d in g.directions() {
+                members[d as usize] = elements[d as usize].is_some();
+            }
+            members
+        });
+        let together_event_weights = Group::ALL.map(|g| {
+            std::array::from_fn(|i| match law.branches().get(i) {
+                Some(branch) if group_members[g as usize].contains(&true) => branch.breakpoint().powi(-2),
+                _ => 0.0,
+            })
+        });
         (law != FrictionLaw::Unlimited).then(|| Friction {
             law,
             branches: law.branches(),
             inverse_first_breakpoint: 1.0 / first_breakpoint,
             first_breakpoint,
-            together_event_weights: Group::ALL.map(|g| {
-                std::array::from_fn(|i| match law.branches().get(i) {
-                    Some(branch) if g.directions().iter().any(|&d| elements[d as usize].is_some()) => {
-                        branch.breakpoint().powi(-2)
-                    }
-                    _ => 0.0,
-                })
-            }),
-            together_event_offsets: Group::ALL.map(|g| {
-                std::array::from_fn(|i| {
-                    let present = g.directions().iter().any(|&d| elements[d as usize].is_some());
-                    if present && i < law.branches().len() {
-                        -1.0
-                    } else {
-                        f64::NEG_INFINITY
-                    }
-                })
-            }),
+            // A branch that exists has a weight (its breakpoint is finite and positive).
+            together_event_offsets: together_event_weights
+                .map(|weights| weights.map(|w| if w > 0.0 { -1.0 } else { NO_EVENT })),
+            together_event_weights,
             present_directions: elements.map(|e| e.is_some()),
             present: {
                 let mut present = [PresentElement::default(); Direction::COUNT];
-                for (slot, (d, e)) in present
-                    .iter_mut()
-                    .zip(elements.iter().enumerate().filter_map(|(d, e)| e.map(|e| (d, e))))
-                {
-                    *slot = PresentElement {
-                        direction: d,
-                        state: e.state,
-                        stiffness: e.stiffness,
-                        damping: e.damping,
-                    };
+                let with_element = by_direction.iter().zip(&elements).filter(|(_, e)| e.is_some());
+                for (slot, (element, _)) in present.iter_mut().zip(with_element) {
+                    *slot = *element;
                 }
                 present
             },
-            by_direction: std::array::from_fn(|d| {
-                elements[d].map_or(PresentElement::default(), |e| PresentElement {
-                    direction: d,
-                    state: e.state,
-                    stiffness: e.stiffness,
-                    damping: e.damping,
-                })
-            }),
+            by_direction,
             present_count: elements.iter().flatten().count(),
             all_undriven: undriven[..elements.iter().flatten().count()].iter().all(|&u| u),
             all_rigorous: (0..elements.iter().flatten().count()).all(|e| undriven[e] || lag_bounded[e]),
@@ -220,13 +213,7 @@ impl Friction {
                 .filter(|e| e.damping > 0.0)
                 .map(|e| e.stiffness / e.damping)
                 .fold(0.0, f64::max),
-            group_members: Group::ALL.map(|g| {
-                let mut members = [false; Direction::COUNT];
-                for &d in g.directions() {
-                    members[d as usize] = elements[d as usize].is_some();
-                }
-                members
-            }),
+            group_members,
             elements,
             passive_energy: None,
             state: SliderState::AT_REST,

@@ -18,7 +18,7 @@
 
 use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire};
 use crate::physics::friction::{
-    Direction, EVENT_TOLERANCE, Events, Group, InverseLimits, Limits, MAX_BRANCHES, SliderState,
+    Direction, EVENT_TOLERANCE, Events, Group, InverseLimits, Limits, MAX_BRANCHES, NO_EVENT, SliderState,
 };
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{Input, OutputVector};
@@ -85,9 +85,6 @@ impl Evaluation {
     }
 }
 
-/// The event value of a group or branch that does not exist.
-const NO_EVENT: f64 = f64::NEG_INFINITY;
-
 /// The guard of a group or branch the tire does not have: it never crosses.
 const NO_GUARD: f64 = 1.0;
 
@@ -107,9 +104,7 @@ impl Tire {
         let mut z = [0.0; CONTINUOUS_STATES];
         z[..MAX_STATES].copy_from_slice(self.states.as_slice());
         if let Some(friction) = &self.friction {
-            for (d, offsets) in friction.state().offsets.iter().enumerate() {
-                z[offset_entry(d, 0)..offset_entry(d, MAX_BRANCHES)].copy_from_slice(offsets);
-            }
+            z[MAX_STATES..].copy_from_slice(friction.state().offsets.as_flattened());
         }
         z
     }
@@ -178,15 +173,18 @@ impl Tire {
         let (x, u) = (self.states, self.driving);
         let load = self.input(Input::Fz);
         if self.contact_mode() == ContactMode::LiftedOff {
-            let x_rates = self.current_system().state_rates(&x, &u);
+            let point = self.operating_point(self.input(Input::Vx), load);
+            let system = self.lifted_off.dynamics_at(point);
             let e = &mut self.hybrid;
             e.rates = [0.0; CONTINUOUS_STATES];
-            e.rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
+            let (x_rates, offset_rates) = e.rates.split_at_mut(MAX_STATES);
+            system.write_state_rates(&x, &u, x_rates.try_into().expect("the layout"));
             if let Some(friction) = &self.friction {
-                for (d, offsets) in friction.state().offsets.iter().enumerate() {
-                    for (i, offset) in offsets.iter().enumerate() {
-                        e.rates[offset_entry(d, i)] = -offset / LIFT_OFF_RELAXATION_TIME;
-                    }
+                for (rate, offset) in offset_rates
+                    .iter_mut()
+                    .zip(friction.state().offsets.as_flattened())
+                {
+                    *rate = -offset / LIFT_OFF_RELAXATION_TIME;
                 }
             }
             e.write_guards(None, load);
@@ -238,9 +236,7 @@ impl Tire {
         let (x_rates, offset_rates, events) = step.mode_rates(&x, &sliders);
         let e = &mut self.hybrid;
         e.rates[..MAX_STATES].copy_from_slice(x_rates.as_slice());
-        for (d, offsets) in offset_rates.offsets.iter().enumerate() {
-            e.rates[offset_entry(d, 0)..offset_entry(d, MAX_BRANCHES)].copy_from_slice(offsets);
-        }
+        e.rates[MAX_STATES..].copy_from_slice(offset_rates.offsets.as_flattened());
         e.write_guards(Some(&events), load);
     }
 

@@ -66,6 +66,8 @@ const STIFF_STEP: f64 = 16.0;
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
 /// Event values by group and branch.
 pub type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
+/// The event value of a group or branch that does not exist: it never crosses.
+pub const NO_EVENT: f64 = f64::NEG_INFINITY;
 
 /// Where each quantity of a step sits in the coupled vector: first the model's states
 /// that carry no contact element (each with its own equation), then every branch
@@ -338,7 +340,7 @@ impl<'a> SlidingStep<'a> {
         for j in 0..layout.free_count {
             rates[j] = x_rates[layout.free[j]];
         }
-        let mut events = [[f64::NEG_INFINITY; MAX_BRANCHES]; Group::COUNT];
+        let mut events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
         for slot in self.slots() {
             let input = self.slot_input(slot, &x, &x_rates, z);
             let sliding = modes[slot.group][slot.branch];
