@@ -47,6 +47,97 @@ pub struct GroupOutput {
 /// Forces (or rates) by member.
 pub type Members = [f64; MAX_MEMBERS];
 
+/// Newton steps of the damped projection before it falls back to the monotone search.
+const NEWTON_STEPS: usize = 12;
+
+/// The multiplier of a damped group's projection onto its ellipse: settled, or searched
+/// for from `start`.
+#[derive(Clone, Copy, Debug)]
+enum Projection {
+    Settled(f64),
+    Search(Search),
+}
+
+/// A search for the projection's multiplier of a group with two members: where it
+/// stands, the group's weights `a_k = Dw_k / L_k^2` and the largest of them, and the
+/// trial force's `r_k = (T_k / L_k)^2`.
+#[derive(Clone, Copy, Debug)]
+struct Search {
+    start: f64,
+    weight: Members,
+    ratio_squared: Members,
+    largest: f64,
+}
+
+/// The most groups [`evaluate_together`] takes: every group and branch of a tire.
+pub const MAX_TOGETHER: usize =
+    crate::physics::friction::Group::COUNT * crate::physics::friction::MAX_BRANCHES;
+
+/// [`GroupInput::evaluate`] of each of `inputs` in its mode, the same values: the damped
+/// groups that slide take their Newton steps side by side, so that one group's roots and
+/// divisions need not wait for another's (each step waits on the last of its own group).
+pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut [GroupOutput]) {
+    let count = inputs.len().min(MAX_TOGETHER);
+    let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
+    let mut utilisations = [0.0; MAX_TOGETHER];
+    let mut searches: [Option<Search>; MAX_TOGETHER] = [None; MAX_TOGETHER];
+    let mut lambdas = [0.0; MAX_TOGETHER];
+    let mut pending = 0;
+    for j in 0..count {
+        let input = &inputs[j];
+        if !(input.damped() && sliding[j]) {
+            outputs[j] = input.evaluate(sliding[j]);
+            continue;
+        }
+        let trial = input.sticking_force();
+        let utilisation = input.utilisation(&trial);
+        (trials[j], utilisations[j]) = (trial, utilisation);
+        match input.projection(&trial, utilisation) {
+            Projection::Settled(lambda) => lambdas[j] = lambda,
+            Projection::Search(search) => {
+                lambdas[j] = search.start;
+                searches[j] = Some(search);
+                pending += 1;
+            }
+        }
+    }
+    for _ in 0..NEWTON_STEPS {
+        if pending == 0 {
+            break;
+        }
+        for j in 0..count {
+            let Some(search) = searches[j] else { continue };
+            match inputs[j].newton_step(&search, lambdas[j]) {
+                Some(Projection::Search(next)) => lambdas[j] = next.start,
+                Some(Projection::Settled(lambda)) => {
+                    (lambdas[j], searches[j]) = (lambda, None);
+                    pending -= 1;
+                }
+                None => {
+                    // Out of the admissible range: the monotone search from the start.
+                    let start = (utilisations[j].sqrt() - 1.0) / search.largest;
+                    lambdas[j] = inputs[j].lambda_monotone(&trials[j], &search.weight, start);
+                    searches[j] = None;
+                    pending -= 1;
+                }
+            }
+        }
+    }
+    for j in 0..count {
+        let input = &inputs[j];
+        if !(input.damped() && sliding[j]) {
+            continue;
+        }
+        if let Some(search) = searches[j] {
+            // Not settled within the Newton steps.
+            let start = (utilisations[j].sqrt() - 1.0) / search.largest;
+            lambdas[j] = input.lambda_monotone(&trials[j], &search.weight, start);
+        }
+        let force = input.projected(&trials[j], lambdas[j]);
+        outputs[j] = input.damped_sliding(force, utilisations[j]);
+    }
+}
+
 /// The sliding spring law at one state ([`GroupInput::flow`]).
 #[derive(Default)]
 struct Flow {
@@ -201,13 +292,23 @@ impl GroupInput {
         let trial = self.sticking_force();
         let utilisation = self.utilisation(&trial);
         if !sliding {
-            return GroupOutput {
-                rate: self.sticking_rate,
-                force: trial,
-                event: utilisation - 1.0,
-            };
+            return self.damped_sticking(trial, utilisation);
         }
         let force = self.closest_point(&trial, utilisation);
+        self.damped_sliding(force, utilisation)
+    }
+
+    fn damped_sticking(&self, trial: Members, utilisation: f64) -> GroupOutput {
+        GroupOutput {
+            rate: self.sticking_rate,
+            force: trial,
+            event: utilisation - 1.0,
+        }
+    }
+
+    /// A sliding damped group whose force is `force` (on the ellipse): the deflection
+    /// follows `Dw db/dt = F - K b`.
+    fn damped_sliding(&self, force: Members, utilisation: f64) -> GroupOutput {
         let mut rate = [0.0; MAX_MEMBERS];
         for k in self.members() {
             rate[k] = (force[k] - self.stiffness[k] * self.deflection[k]) / self.damping[k];
@@ -223,51 +324,104 @@ impl GroupInput {
     /// trial force `T` with `utilisation > 0` (outside the ellipse `lambda > 0`; inside, the
     /// same formula continues with `lambda < 0`).
     pub fn closest_point(&self, trial: &Members, utilisation: f64) -> Members {
+        let lambda = match self.projection(trial, utilisation) {
+            Projection::Settled(lambda) => lambda,
+            Projection::Search(search) => self
+                .lambda_by_norm(&search)
+                .unwrap_or_else(|| self.lambda_monotone(trial, &search.weight, search.start)),
+        };
+        self.projected(trial, lambda)
+    }
+
+    /// `F_k = T_k / (1 + lambda a_k)`.
+    fn projected(&self, trial: &Members, lambda: f64) -> Members {
+        let mut force = [0.0; MAX_MEMBERS];
+        for k in self.members() {
+            let weight = self.damping[k] / (self.limit[k] * self.limit[k]);
+            force[k] = trial[k] / (1.0 + lambda * weight);
+        }
+        force
+    }
+
+    /// The multiplier of [`GroupInput::closest_point`] where it has a closed form, else
+    /// where its search starts.
+    fn projection(&self, trial: &Members, utilisation: f64) -> Projection {
         let mut weight = [0.0; MAX_MEMBERS];
         for k in self.members() {
             weight[k] = self.damping[k] / (self.limit[k] * self.limit[k]);
         }
         let mut moving = self.members().filter(|&k| trial[k] != 0.0);
         let first = moving.next();
-        let lambda = match (first, moving.next()) {
+        match (first, moving.next()) {
             // One direction (or equal weights): the ellipse scales T radially.
-            (Some(k), None) => (utilisation.sqrt() - 1.0) / weight[k],
-            (Some(k), Some(j)) if weight[k] == weight[j] => (utilisation.sqrt() - 1.0) / weight[k],
-            (None, _) => 0.0,
+            (Some(k), None) => Projection::Settled((utilisation.sqrt() - 1.0) / weight[k]),
+            (Some(k), Some(j)) if weight[k] == weight[j] => {
+                Projection::Settled((utilisation.sqrt() - 1.0) / weight[k])
+            }
+            (None, _) => Projection::Settled(0.0),
             _ => {
                 let largest = self.members().map(|k| weight[k]).fold(0.0, f64::max);
-                let start = (utilisation.sqrt() - 1.0) / largest;
-                self.lambda_by_norm(trial, &weight, start, largest)
-                    .unwrap_or_else(|| self.lambda_monotone(trial, &weight, start))
+                let ratio_squared = [0, 1].map(|k| (trial[k] / self.limit[k]).powi(2));
+                Projection::Search(Search {
+                    start: (utilisation.sqrt() - 1.0) / largest,
+                    weight,
+                    ratio_squared,
+                    largest,
+                })
             }
-        };
-        let mut force = [0.0; MAX_MEMBERS];
-        for k in self.members() {
-            force[k] = trial[k] / (1.0 + lambda * weight[k]);
         }
-        force
     }
 
     /// The multiplier of [`GroupInput::closest_point`] by Newton's method on
     /// `S(lambda)^(-1/2) = 1`, `S = sum (T_k / (L_k (1 + lambda a_k)))^2`: linear in lambda
     /// where the weights are equal, and close to it where they differ, so two or three
-    /// steps reach rounding. `None` if it leaves the admissible range or does not settle.
-    fn lambda_by_norm(&self, trial: &Members, weight: &Members, start: f64, largest: f64) -> Option<f64> {
-        let mut lambda = start;
-        for _ in 0..12 {
-            let (sum, slope) = self.squared_norm(trial, weight, lambda)?;
-            // h = S^(-1/2) - 1, h' = -S' / (2 S^(3/2)): the step -h / h'.
-            let step = 2.0 * sum * (1.0 - sum.sqrt()) / slope;
-            if !step.is_finite() {
-                return None;
-            }
-            lambda += step;
-            // The forces T_k / (1 + lambda a_k) are then settled to rounding.
-            if (step * largest).abs() <= 1e-15 * (1.0 + (lambda * largest).abs()) {
-                return Some(lambda);
+    /// steps reach rounding ([`GroupInput::newton_step`]). `None` if it leaves the
+    /// admissible range or does not settle.
+    fn lambda_by_norm(&self, search: &Search) -> Option<f64> {
+        let mut lambda = search.start;
+        for _ in 0..NEWTON_STEPS {
+            match self.newton_step(search, lambda)? {
+                Projection::Settled(lambda) => return Some(lambda),
+                Projection::Search(next) => lambda = next.start,
             }
         }
         None
+    }
+
+    /// One step of [`GroupInput::lambda_by_norm`] from `lambda`: the next multiplier,
+    /// settled if the forces `T_k / (1 + lambda a_k)` then move by rounding only; `None`
+    /// if it leaves the admissible range.
+    ///
+    /// With `r_k = (T_k / L_k)^2`, `p_k = 1 + lambda a_k`, `n = r_0 p_1^2 + r_1 p_0^2` and
+    /// `m = r_0 a_0 p_1^3 + r_1 a_1 p_0^3`, `S = n / (p_0 p_1)^2` and the step
+    /// `-h / h'` (`h = S^(-1/2) - 1`) is `-n (p_0 p_1 - sqrt n) / m`: one root and one
+    /// division.
+    #[inline]
+    fn newton_step(&self, search: &Search, lambda: f64) -> Option<Projection> {
+        let (a, r) = (&search.weight, &search.ratio_squared);
+        let (p0, p1) = (1.0 + lambda * a[0], 1.0 + lambda * a[1]);
+        if !(p0 > 0.0 && p1 > 0.0) {
+            return None;
+        }
+        let n = r[0] * p1 * p1 + r[1] * p0 * p0;
+        let m = r[0] * a[0] * p1 * p1 * p1 + r[1] * a[1] * p0 * p0 * p0;
+        let step = -n * (p0 * p1 - n.sqrt()) / m;
+        if !step.is_finite() {
+            return None;
+        }
+        // Settled where the step moved the forces `F_k = T_k / p_k` by at most 1e-14 L_k
+        // (a few rounding units; the next step would move them by about its square):
+        // `|dF_k| / L_k = sqrt(r_k) a_k |step| / p_k^2`.
+        let moves = |r: f64, a: f64, p: f64| r * (a * step) * (a * step) > 1e-28 * (p * p) * (p * p);
+        let next = lambda + step;
+        Some(if moves(r[0], a[0], p0) || moves(r[1], a[1], p1) {
+            Projection::Search(Search {
+                start: next,
+                ..*search
+            })
+        } else {
+            Projection::Settled(next)
+        })
     }
 
     /// The multiplier of [`GroupInput::closest_point`] by Newton's method on
@@ -400,9 +554,14 @@ mod tests {
                 let weight = [0, 1].map(|k| input.damping[k] / (input.limit[k] * input.limit[k]));
                 let largest = weight[0].max(weight[1]);
                 let start = (utilisation.sqrt() - 1.0) / largest;
-                let fast = input
-                    .lambda_by_norm(&trial, &weight, start, largest)
-                    .expect("settles");
+                let ratio_squared = [0, 1].map(|k| (trial[k] / input.limit[k]).powi(2));
+                let search = Search {
+                    start,
+                    weight,
+                    ratio_squared,
+                    largest,
+                };
+                let fast = input.lambda_by_norm(&search).expect("settles");
                 let monotone = input.lambda_monotone(&trial, &weight, start);
                 for k in 0..2 {
                     let (a, m) = (

@@ -13,6 +13,8 @@ use crate::physics::{ModelKind, Parameter, Parameters, Tire};
 
 /// The parts a step is split into for the references.
 const PARTS: usize = 16;
+/// How close the general path's end is held to the separable step's, by elastic travel.
+const GENERAL_PATH_ACCURACY: f64 = 1e-7;
 
 struct Case {
     stiff: bool,
@@ -81,6 +83,10 @@ fn compare(case: &Case) {
         .expect("a step of the separable path");
     // The general path in parts (in one step of a stiff slide its stiff method is less
     // accurate than its tolerance), and the separable path in parts too: the same ends.
+    // The general path is held to 1e-7 of the travel, as the independent references are
+    // (a stiff tire at a light load with Brush, kept in proptest-regressions/, ends 3e-8
+    // of the travel away, where the separable step agrees with itself in parts to
+    // rounding).
     let general = SlidingStep::new(&system, &friction, limits, (u, DrivingVector::zeros()), x.amax());
     let (mut slow_x, mut slow_sliders) = (x, sliders);
     let (mut split_x, mut split_sliders) = (x, sliders);
@@ -101,7 +107,7 @@ fn compare(case: &Case) {
         let k = friction.elements[d].unwrap().state;
         let scale = travel[m];
         assert!(
-            (fast_x[k] - slow_x[k]).abs() <= 1e-8 * scale,
+            (fast_x[k] - slow_x[k]).abs() <= GENERAL_PATH_ACCURACY * scale,
             "state {k}: {} vs {} (travel {scale})",
             fast_x[k],
             slow_x[k]
@@ -112,7 +118,7 @@ fn compare(case: &Case) {
                 slow_x[k] + slow_sliders.offsets[d][i],
             );
             assert!(
-                (fast - slow).abs() <= 1e-8 * scale,
+                (fast - slow).abs() <= GENERAL_PATH_ACCURACY * scale,
                 "branch {i} of {direction:?}: {fast} vs {slow}"
             );
             let split = split_x[k] + split_sliders.offsets[d][i];

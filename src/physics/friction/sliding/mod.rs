@@ -30,7 +30,7 @@ mod implicit;
 
 use std::cell::Cell;
 
-use super::group::{GroupInput, GroupOutput, MAX_MEMBERS};
+use super::group::{GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, evaluate_together};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
@@ -222,6 +222,8 @@ pub struct SlidingStep<'a> {
     /// them there).
     slots: [Slot; Group::COUNT * MAX_BRANCHES],
     slot_count: usize,
+    /// Whether the elements have dampers ([`Friction::damped`]).
+    damped: bool,
     /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
@@ -284,6 +286,7 @@ impl<'a> SlidingStep<'a> {
             layout,
             slots,
             slot_count,
+            damped: friction.damped(),
             stiff: Cell::new(false),
             start_sliding_rate: Cell::new(0.0),
         }
@@ -341,15 +344,33 @@ impl<'a> SlidingStep<'a> {
             rates[j] = x_rates[layout.free[j]];
         }
         let mut events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
-        for slot in self.slots() {
-            let input = self.slot_input(slot, &x, &x_rates, z);
-            let sliding = modes[slot.group][slot.branch];
-            let out: GroupOutput = input.evaluate(sliding);
+        let mut write = |slot: &Slot, input: &GroupInput, sliding: bool, out: &GroupOutput| {
             for m in input.members() {
                 rates[slot.entries[m]] = out.rate[m];
             }
             events[slot.group][slot.branch] = out.event;
-            adjust(slot, &input, sliding, &mut rates);
+            adjust(slot, input, sliding, &mut rates);
+        };
+        let slots = self.slots();
+        if !self.damped {
+            for slot in slots {
+                let input = self.slot_input(slot, &x, &x_rates, z);
+                let sliding = modes[slot.group][slot.branch];
+                write(slot, &input, sliding, &input.evaluate(sliding));
+            }
+        } else {
+            // Damped groups project onto their ellipses by Newton steps: all side by side.
+            let mut inputs = [GroupInput::default(); MAX_TOGETHER];
+            let mut sliding = [false; MAX_TOGETHER];
+            for (j, slot) in slots.iter().enumerate() {
+                inputs[j] = self.slot_input(slot, &x, &x_rates, z);
+                sliding[j] = modes[slot.group][slot.branch];
+            }
+            let mut outputs = [GroupOutput::default(); MAX_TOGETHER];
+            evaluate_together(&inputs[..slots.len()], &sliding, &mut outputs);
+            for (j, slot) in slots.iter().enumerate() {
+                write(slot, &inputs[j], sliding[j], &outputs[j]);
+            }
         }
         (rates, events)
     }
