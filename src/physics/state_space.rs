@@ -98,48 +98,37 @@ impl StateSpace {
 
     /// [`StateSpace::state_rates`] written into `rates`, where they are to be kept (a
     /// copy read right after they are written one by one would wait for the writes to
-    /// land); entries past the model's states are left alone.
+    /// land); entries past the model's states are left alone where the model's state
+    /// count has its own size (every model's does), and are zero (as A's and B's rows
+    /// there are) where it takes [`MAX_STATES`].
     #[inline]
     pub fn write_state_rates(&self, x: &StateVector, u: &DrivingVector, rates: &mut [f64; MAX_STATES]) {
-        let n = self.states.min(MAX_STATES);
-        by_state_count!(n, N => self.write_sized_state_rates::<N>(n, x, u, rates))
+        by_state_count!(self.states, N => self.write_sized_state_rates::<N>(x, u, rates))
     }
 
-    /// [`StateSpace::write_state_rates`] for `n` states, unrolled where `n` is `N`.
+    /// [`StateSpace::write_state_rates`] for the first `N` states, column by column over
+    /// all rows at once: the rows go in pairs, and the rates are stored as wide as they
+    /// are read (a wide read of narrow stores waits). Each rate sums in the same order as
+    /// a row by row product would.
     #[inline]
     fn write_sized_state_rates<const N: usize>(
         &self,
-        n: usize,
         x: &StateVector,
         u: &DrivingVector,
         rates: &mut [f64; MAX_STATES],
     ) {
         // Column-major storage: entry (i, j) at i + MAX_STATES j.
         let (a, b) = (self.a.as_slice(), self.b.as_slice());
-        if n == N {
-            // Column by column over all rows at once: the rows go in pairs, and the rates
-            // are stored as wide as they are read (a wide read of narrow stores waits).
-            // Each rate sums in the same order as a row by row product would.
-            let mut states: [f64; N] = std::array::from_fn(|i| a[i] * x[0]);
-            for j in 1..N {
-                for (i, s) in states.iter_mut().enumerate() {
-                    *s += a[i + MAX_STATES * j] * x[j];
-                }
+        let mut states: [f64; N] = std::array::from_fn(|i| a[i] * x[0]);
+        for j in 1..N {
+            for (i, s) in states.iter_mut().enumerate() {
+                *s += a[i + MAX_STATES * j] * x[j];
             }
-            let inputs: [f64; N] = std::array::from_fn(|i| {
-                b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2]
-            });
-            for ((r, s), i) in rates.iter_mut().zip(states).zip(inputs) {
-                *r = s + i;
-            }
-        } else {
-            for (i, r) in rates.iter_mut().enumerate().take(n) {
-                let mut states = a[i] * x[0];
-                for j in 1..n {
-                    states += a[i + MAX_STATES * j] * x[j];
-                }
-                *r = states + (b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2]);
-            }
+        }
+        let inputs: [f64; N] =
+            std::array::from_fn(|i| b[i] * u[0] + b[i + MAX_STATES] * u[1] + b[i + 2 * MAX_STATES] * u[2]);
+        for ((r, s), i) in rates.iter_mut().zip(states).zip(inputs) {
+            *r = s + i;
         }
     }
 

@@ -45,32 +45,23 @@ TIR_FILE_VR = 130
 
 # --------------------------------------------------------------------------- logging
 
-class LogCapture3:
+class LogCapture3(fc.MessageLog):
     """Records (status, category, message) of every fmi3LogMessageCallback call.
 
     Pass `log.callback` as fmpy's instantiate(logMessage=...) (fmpy wraps it in
     fmi3LogMessageCallback and keeps that alive with the instance), or `log.c_callback`
-    to a raw fmi3Instantiate* call. Same interface as fmi4_common.LogCapture (messages,
-    clear, errors, text), so test_bad_input.assert_error_logged works with both."""
+    to a raw fmi3Instantiate* call. The interface of fmi4_common.LogCapture (messages,
+    clear, errors, text: fmi4_common.MessageLog), so test_bad_input.assert_error_logged
+    works with both."""
 
     def __init__(self):
         from fmpy.fmi3 import fmi3LogMessageCallback
 
-        self.messages = []
+        super().__init__()
         self.c_callback = fmi3LogMessageCallback(self.callback)
 
     def callback(self, instance_environment, status, category, message):
-        self.messages.append((int(status), (category or b"").decode("utf-8", "replace"),
-                              (message or b"").decode("utf-8", "replace")))
-
-    def clear(self):
-        self.messages.clear()
-
-    def errors(self):
-        return [m for (s, _, m) in self.messages if s >= FMI3_ERROR]
-
-    def text(self):
-        return "\n".join(f"[{s}] {c}: {m}" for s, c, m in self.messages)
+        self.record(status, category, message)
 
 
 # --------------------------------------------------------------------------- the FMU
@@ -99,25 +90,11 @@ def new_slave3(md, unzipdir, name="tire3", log=None, logging_on=False, **instant
     return slave
 
 
-def counting_model_class():
-    from fmpy.fmi3 import FMU3Model
-
-    # (fmpy picks the FMI version of the functions it loads from the class name's prefix)
-    class FMU3CountingModel(FMU3Model):
-        """fmpy's FMU3Model that counts fmi3EnterEventMode calls (input and state events)."""
-
-        n_events = 0
-
-        def enterEventMode(self):
-            self.n_events += 1
-            return super().enterEventMode()
-
-    return FMU3CountingModel
-
-
 def new_model3(md, unzipdir, name="me3", log=None, cls=None):
     """An FMU3Model (by default an FMU3CountingModel) that is only instantiated."""
-    cls = cls or counting_model_class()
+    from fmpy.fmi3 import FMU3Model
+
+    cls = cls or fc.counting_model_class(FMU3Model)
     log = log if log is not None else LogCapture3()
     fmu = cls(guid=md.guid, unzipDirectory=unzipdir,
               modelIdentifier=md.modelExchange.modelIdentifier, instanceName=name)

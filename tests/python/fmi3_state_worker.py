@@ -75,51 +75,51 @@ def bounds(iface):
     return warmup, warmup + more
 
 
-def save(outdir: Path):
+def instances(role):
+    """For every case, (instance, iface, model, law, case): a fresh, only-instantiated
+    instance named <role>-<case>, from the FMU extracted once to a temporary folder. When
+    the caller is done with it: no error logged, then the instance is freed."""
     md = f3.read_md3()
     with tempfile.TemporaryDirectory() as tmp:
         unzipdir = f3.extract_fmu3(tmp)
         for iface, model, law in cases():
             case = case_name(iface, model, law)
-            warmup, end = bounds(iface)
-            s = new_instance(md, unzipdir, iface, f"save-{case}")
-            (f3.initialise_me3 if iface == "me" else f3.initialise3)(s, model, params(law), friction=law)
-            _, t = run(s, iface, 0.0, 0, warmup)
-            state = s.getFMUState()
-            blob = s.serializeFMUState(state)
-            s.freeFMUState(state)
-            (outdir / f"{case}.state").write_bytes(blob)
-            (outdir / f"{case}.json").write_text(json.dumps({"t": repr(t)}))
-            Y, _ = run(s, iface, t, warmup, end)
-            np.save(outdir / f"{case}.save.npy", Y)
+            s = new_instance(md, unzipdir, iface, f"{role}-{case}")
+            yield s, iface, model, law, case
             assert not s.log.errors(), s.log.text()
             f3.close3(s)
+
+
+def save(outdir: Path):
+    for s, iface, model, law, case in instances("save"):
+        warmup, end = bounds(iface)
+        (f3.initialise_me3 if iface == "me" else f3.initialise3)(s, model, params(law), friction=law)
+        _, t = run(s, iface, 0.0, 0, warmup)
+        state = s.getFMUState()
+        blob = s.serializeFMUState(state)
+        s.freeFMUState(state)
+        (outdir / f"{case}.state").write_bytes(blob)
+        (outdir / f"{case}.json").write_text(json.dumps({"t": repr(t)}))
+        Y, _ = run(s, iface, t, warmup, end)
+        np.save(outdir / f"{case}.save.npy", Y)
 
 
 def load(outdir: Path):
-    md = f3.read_md3()
-    with tempfile.TemporaryDirectory() as tmp:
-        unzipdir = f3.extract_fmu3(tmp)
-        for iface, model, law in cases():
-            case = case_name(iface, model, law)
-            warmup, end = bounds(iface)
-            t = float(json.loads((outdir / f"{case}.json").read_text())["t"])
-            blob = (outdir / f"{case}.state").read_bytes()
-            s = new_instance(md, unzipdir, iface, f"load-{case}")     # only instantiated
-            state = s.deserializeFMUState(blob)
-            s.setFMUState(state)
-            s.freeFMUState(state)
-            readback = {
-                "model": s.getInt64([fc.MODEL_VR])[0],
-                "friction": s.getInt64([fc.FRICTION_VR])[0],
-                "params": dict(zip(fc.ALL_PARAMETER_VR, s.getFloat64(list(fc.ALL_PARAMETER_VR.values())))),
-                "inputs": s.getFloat64(fc.IN_VRS),
-            }
-            Y, _ = run(s, iface, t, warmup, end)
-            np.save(outdir / f"{case}.load.npy", Y)
-            (outdir / f"{case}.load.json").write_text(json.dumps(readback))
-            assert not s.log.errors(), s.log.text()
-            f3.close3(s)
+    for s, iface, model, law, case in instances("load"):
+        warmup, end = bounds(iface)
+        t = float(json.loads((outdir / f"{case}.json").read_text())["t"])
+        state = s.deserializeFMUState((outdir / f"{case}.state").read_bytes())
+        s.setFMUState(state)
+        s.freeFMUState(state)
+        readback = {
+            "model": s.getInt64([fc.MODEL_VR])[0],
+            "friction": s.getInt64([fc.FRICTION_VR])[0],
+            "params": dict(zip(fc.ALL_PARAMETER_VR, s.getFloat64(list(fc.ALL_PARAMETER_VR.values())))),
+            "inputs": s.getFloat64(fc.IN_VRS),
+        }
+        Y, _ = run(s, iface, t, warmup, end)
+        np.save(outdir / f"{case}.load.npy", Y)
+        (outdir / f"{case}.load.json").write_text(json.dumps(readback))
 
 
 if __name__ == "__main__":

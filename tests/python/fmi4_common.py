@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +50,29 @@ FMI2_OK, FMI2_WARNING, FMI2_DISCARD, FMI2_ERROR = 0, 1, 2, 3
 _PROXIED_LOGGERS = []
 
 
-class LogCapture:
+class MessageLog:
+    """The (status, category, message) of every log call, the texts decoded from bytes.
+    The common part of LogCapture (FMI 2.0) and fmi3_common.LogCapture3 (FMI 3.0), whose
+    error status is 3 in both versions."""
+
+    def __init__(self):
+        self.messages = []
+
+    def record(self, status, category, message):
+        self.messages.append((int(status), (category or b"").decode("utf-8", "replace"),
+                              (message or b"").decode("utf-8", "replace")))
+
+    def clear(self):
+        self.messages.clear()
+
+    def errors(self):
+        return [m for (s, _, m) in self.messages if s >= FMI2_ERROR]
+
+    def text(self):
+        return "\n".join(f"[{s}] {c}: {m}" for s, c, m in self.messages)
+
+
+class LogCapture(MessageLog):
     """fmi2CallbackFunctions whose logger records (status, category, message).
 
     With `formatting` (the default), fmpy's logger proxy (fmpy.logging.addLoggerProxy)
@@ -64,11 +88,10 @@ class LogCapture:
                                fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
         from fmpy.logging import addLoggerProxy
 
-        self.messages = []
+        super().__init__()
 
         def logger(component, instance_name, status, category, message):
-            self.messages.append((int(status), (category or b"").decode("utf-8", "replace"),
-                                  (message or b"").decode("utf-8", "replace")))
+            self.record(status, category, message)
 
         self._logger = logger
         cb = fmi2CallbackFunctions()
@@ -79,15 +102,6 @@ class LogCapture:
             addLoggerProxy(ctypes.byref(cb))
             _PROXIED_LOGGERS.append(cb.logger)
         self.callbacks = cb
-
-    def clear(self):
-        self.messages.clear()
-
-    def errors(self):
-        return [m for (s, _, m) in self.messages if s >= FMI2_ERROR]
-
-    def text(self):
-        return "\n".join(f"[{s}] {c}: {m}" for s, c, m in self.messages)
 
 
 def extract_fmu(dest):
@@ -112,6 +126,22 @@ def new_slave(md, unzipdir, name="tire", log=None, logging_on=False):
     return slave
 
 
+def counting_model_class(base):
+    """fmpy's FMU2Model or FMU3Model (`base`) subclassed to count enterEventMode calls
+    (input and state events) in `n_events`: FMU2CountingModel or FMU3CountingModel (fmpy
+    picks the FMI version of the functions it loads from the class name's prefix)."""
+
+    class CountingModel(base):
+        n_events = 0
+
+        def enterEventMode(self):
+            self.n_events += 1
+            return super().enterEventMode()
+
+    CountingModel.__name__ = base.__name__.replace("Model", "CountingModel")
+    return CountingModel
+
+
 def initialise(slave, model="DDT", params=None, inputs=None, start_time=0.0, friction=None):
     """setupExperiment, parameters, model and friction law (None: the FMU's default,
     Brush), enter/exit initialisation, then inputs."""
@@ -133,6 +163,16 @@ def initialise(slave, model="DDT", params=None, inputs=None, start_time=0.0, fri
 def module_fmu(tmp_path_factory, name):
     """(model description, unzip directory): the body of a module-scoped `fmu` fixture."""
     return read_md(), extract_fmu(tmp_path_factory.mktemp(name))
+
+
+def run_state_worker(script, out):
+    """`python script save out`, then `python script load out`, each in a fresh process
+    (fmi4_state_worker.py, fmi3_state_worker.py); both must succeed. Returns out."""
+    for mode in ("save", "load"):
+        r = subprocess.run([sys.executable, script, mode, str(out)],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode == 0, f"worker {mode} failed ({r.returncode}):\n{r.stdout}\n{r.stderr}"
+    return out
 
 
 def start_values(md):

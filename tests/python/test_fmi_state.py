@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import ctypes
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -135,12 +133,7 @@ def test_serialized_state_roundtrip_and_size(slaves):
 @pytest.fixture(scope="module")
 def cross_process(tmp_path_factory):
     """Run the worker twice: one process saves, a second, fresh process restores."""
-    out = tmp_path_factory.mktemp("fmi4_xproc")
-    for mode in ("save", "load"):
-        r = subprocess.run([sys.executable, worker.__file__, mode, str(out)],
-                           capture_output=True, text=True, timeout=120)
-        assert r.returncode == 0, f"worker {mode} failed ({r.returncode}):\n{r.stdout}\n{r.stderr}"
-    return out
+    return fc.run_state_worker(worker.__file__, tmp_path_factory.mktemp("fmi4_xproc"))
 
 
 @pytest.mark.parametrize("model,law", fc.STATE_CASES)

@@ -59,14 +59,69 @@ enum Projection {
 }
 
 /// A search for the projection's multiplier of a group with two members: where it
-/// stands, the group's weights `a_k = Dw_k / L_k^2` and the largest of them, and the
-/// trial force's `r_k = (T_k / L_k)^2`.
+/// starts, the group's weights `a_k = Dw_k / L_k^2`, and the trial force's
+/// `r_k = (T_k / L_k)^2`.
 #[derive(Clone, Copy, Debug)]
 struct Search {
     start: f64,
     weight: Members,
     ratio_squared: Members,
-    largest: f64,
+}
+
+/// One Newton step of a search.
+enum Step {
+    /// The forces moved by rounding only.
+    Settled(f64),
+    Next(f64),
+}
+
+impl Search {
+    /// The multiplier by Newton's method on `S(lambda)^(-1/2) = 1`,
+    /// `S = sum (T_k / (L_k (1 + lambda a_k)))^2`: linear in lambda where the weights are
+    /// equal, and close to it where they differ, so two or three steps reach rounding.
+    /// `None` if it leaves the admissible range or does not settle.
+    fn lambda_by_norm(&self) -> Option<f64> {
+        let mut lambda = self.start;
+        for _ in 0..NEWTON_STEPS {
+            match self.newton_step(lambda)? {
+                Step::Settled(lambda) => return Some(lambda),
+                Step::Next(next) => lambda = next,
+            }
+        }
+        None
+    }
+
+    /// One step of [`Search::lambda_by_norm`] from `lambda`; `None` if it leaves the
+    /// admissible range.
+    ///
+    /// With `r_k = (T_k / L_k)^2`, `p_k = 1 + lambda a_k`, `n = r_0 p_1^2 + r_1 p_0^2` and
+    /// `m = r_0 a_0 p_1^3 + r_1 a_1 p_0^3`, `S = n / (p_0 p_1)^2` and the step
+    /// `-h / h'` (`h = S^(-1/2) - 1`) is `-n (p_0 p_1 - sqrt n) / m`: one root and one
+    /// division.
+    #[inline]
+    fn newton_step(&self, lambda: f64) -> Option<Step> {
+        let (a, r) = (&self.weight, &self.ratio_squared);
+        let (p0, p1) = (1.0 + lambda * a[0], 1.0 + lambda * a[1]);
+        if !(p0 > 0.0 && p1 > 0.0) {
+            return None;
+        }
+        let n = r[0] * p1 * p1 + r[1] * p0 * p0;
+        let m = r[0] * a[0] * p1 * p1 * p1 + r[1] * a[1] * p0 * p0 * p0;
+        let step = -n * (p0 * p1 - n.sqrt()) / m;
+        if !step.is_finite() {
+            return None;
+        }
+        // Settled where the step moved the forces `F_k = T_k / p_k` by at most 1e-14 L_k
+        // (a few rounding units; the next step would move them by about its square):
+        // `|dF_k| / L_k = sqrt(r_k) a_k |step| / p_k^2`.
+        let moves = |r: f64, a: f64, p: f64| r * (a * step) * (a * step) > 1e-28 * (p * p) * (p * p);
+        let next = lambda + step;
+        Some(if moves(r[0], a[0], p0) || moves(r[1], a[1], p1) {
+            Step::Next(next)
+        } else {
+            Step::Settled(next)
+        })
+    }
 }
 
 /// The most groups [`evaluate_together`] takes: every group and branch of a tire.
@@ -80,7 +135,9 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
     let count = inputs.len().min(MAX_TOGETHER);
     let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
     let mut utilisations = [0.0; MAX_TOGETHER];
+    // The searches not settled by Newton's method, and those whose steps go on.
     let mut searches: [Option<Search>; MAX_TOGETHER] = [None; MAX_TOGETHER];
+    let mut searching = [false; MAX_TOGETHER];
     let mut lambdas = [0.0; MAX_TOGETHER];
     let mut pending = 0;
     for j in 0..count {
@@ -95,8 +152,7 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
         match input.projection(&trial, utilisation) {
             Projection::Settled(lambda) => lambdas[j] = lambda,
             Projection::Search(search) => {
-                lambdas[j] = search.start;
-                searches[j] = Some(search);
+                (lambdas[j], searches[j], searching[j]) = (search.start, Some(search), true);
                 pending += 1;
             }
         }
@@ -106,18 +162,18 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
             break;
         }
         for j in 0..count {
-            let Some(search) = searches[j] else { continue };
-            match inputs[j].newton_step(&search, lambdas[j]) {
-                Some(Projection::Search(next)) => lambdas[j] = next.start,
-                Some(Projection::Settled(lambda)) => {
-                    (lambdas[j], searches[j]) = (lambda, None);
+            let (true, Some(search)) = (searching[j], &searches[j]) else {
+                continue;
+            };
+            match search.newton_step(lambdas[j]) {
+                Some(Step::Next(lambda)) => lambdas[j] = lambda,
+                Some(Step::Settled(lambda)) => {
+                    (lambdas[j], searches[j], searching[j]) = (lambda, None, false);
                     pending -= 1;
                 }
+                // Out of the admissible range: the monotone search (below).
                 None => {
-                    // Out of the admissible range: the monotone search from the start.
-                    let start = (utilisations[j].sqrt() - 1.0) / search.largest;
-                    lambdas[j] = inputs[j].lambda_monotone(&trials[j], &search.weight, start);
-                    searches[j] = None;
+                    searching[j] = false;
                     pending -= 1;
                 }
             }
@@ -128,10 +184,8 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
         if !(input.damped() && sliding[j]) {
             continue;
         }
-        if let Some(search) = searches[j] {
-            // Not settled within the Newton steps.
-            let start = (utilisations[j].sqrt() - 1.0) / search.largest;
-            lambdas[j] = input.lambda_monotone(&trials[j], &search.weight, start);
+        if let Some(search) = &searches[j] {
+            lambdas[j] = input.lambda_monotone(&trials[j], search);
         }
         let force = input.projected(&trials[j], lambdas[j]);
         outputs[j] = input.damped_sliding(force, utilisations[j]);
@@ -326,9 +380,9 @@ impl GroupInput {
     pub fn closest_point(&self, trial: &Members, utilisation: f64) -> Members {
         let lambda = match self.projection(trial, utilisation) {
             Projection::Settled(lambda) => lambda,
-            Projection::Search(search) => self
-                .lambda_by_norm(&search)
-                .unwrap_or_else(|| self.lambda_monotone(trial, &search.weight, search.start)),
+            Projection::Search(search) => search
+                .lambda_by_norm()
+                .unwrap_or_else(|| self.lambda_monotone(trial, &search)),
         };
         self.projected(trial, lambda)
     }
@@ -366,69 +420,16 @@ impl GroupInput {
                     start: (utilisation.sqrt() - 1.0) / largest,
                     weight,
                     ratio_squared,
-                    largest,
                 })
             }
         }
     }
 
     /// The multiplier of [`GroupInput::closest_point`] by Newton's method on
-    /// `S(lambda)^(-1/2) = 1`, `S = sum (T_k / (L_k (1 + lambda a_k)))^2`: linear in lambda
-    /// where the weights are equal, and close to it where they differ, so two or three
-    /// steps reach rounding ([`GroupInput::newton_step`]). `None` if it leaves the
-    /// admissible range or does not settle.
-    fn lambda_by_norm(&self, search: &Search) -> Option<f64> {
-        let mut lambda = search.start;
-        for _ in 0..NEWTON_STEPS {
-            match self.newton_step(search, lambda)? {
-                Projection::Settled(lambda) => return Some(lambda),
-                Projection::Search(next) => lambda = next.start,
-            }
-        }
-        None
-    }
-
-    /// One step of [`GroupInput::lambda_by_norm`] from `lambda`: the next multiplier,
-    /// settled if the forces `T_k / (1 + lambda a_k)` then move by rounding only; `None`
-    /// if it leaves the admissible range.
-    ///
-    /// With `r_k = (T_k / L_k)^2`, `p_k = 1 + lambda a_k`, `n = r_0 p_1^2 + r_1 p_0^2` and
-    /// `m = r_0 a_0 p_1^3 + r_1 a_1 p_0^3`, `S = n / (p_0 p_1)^2` and the step
-    /// `-h / h'` (`h = S^(-1/2) - 1`) is `-n (p_0 p_1 - sqrt n) / m`: one root and one
-    /// division.
-    #[inline]
-    fn newton_step(&self, search: &Search, lambda: f64) -> Option<Projection> {
-        let (a, r) = (&search.weight, &search.ratio_squared);
-        let (p0, p1) = (1.0 + lambda * a[0], 1.0 + lambda * a[1]);
-        if !(p0 > 0.0 && p1 > 0.0) {
-            return None;
-        }
-        let n = r[0] * p1 * p1 + r[1] * p0 * p0;
-        let m = r[0] * a[0] * p1 * p1 * p1 + r[1] * a[1] * p0 * p0 * p0;
-        let step = -n * (p0 * p1 - n.sqrt()) / m;
-        if !step.is_finite() {
-            return None;
-        }
-        // Settled where the step moved the forces `F_k = T_k / p_k` by at most 1e-14 L_k
-        // (a few rounding units; the next step would move them by about its square):
-        // `|dF_k| / L_k = sqrt(r_k) a_k |step| / p_k^2`.
-        let moves = |r: f64, a: f64, p: f64| r * (a * step) * (a * step) > 1e-28 * (p * p) * (p * p);
-        let next = lambda + step;
-        Some(if moves(r[0], a[0], p0) || moves(r[1], a[1], p1) {
-            Projection::Search(Search {
-                start: next,
-                ..*search
-            })
-        } else {
-            Projection::Settled(next)
-        })
-    }
-
-    /// The multiplier of [`GroupInput::closest_point`] by Newton's method on
-    /// `phi(lambda) = S(lambda) - 1`, convex and falling: from `start`, where `phi >= 0`,
-    /// it rises monotonically to the root, with every `1 + lambda a_k > 0`.
-    fn lambda_monotone(&self, trial: &Members, weight: &Members, start: f64) -> f64 {
-        let mut lambda = start;
+    /// `phi(lambda) = S(lambda) - 1`, convex and falling: from the search's start, where
+    /// `phi >= 0`, it rises monotonically to the root, with every `1 + lambda a_k > 0`.
+    fn lambda_monotone(&self, trial: &Members, search: &Search) -> f64 {
+        let (weight, mut lambda) = (&search.weight, search.start);
         for _ in 0..100 {
             let Some((sum, slope)) = self.squared_norm(trial, weight, lambda) else {
                 return lambda;
@@ -533,6 +534,29 @@ mod tests {
         }
     }
 
+    /// Groups evaluated together give what each gives by itself, bit for bit.
+    #[test]
+    fn groups_evaluated_together_give_their_own_values() {
+        let mut inputs = Vec::new();
+        for (b, g) in [
+            ([0.02, 0.03], [5.0, -3.0]),
+            ([0.03, 0.0001], [0.01, 0.001]),
+            ([0.0, 0.06], [0.0, 10.0]),
+            ([0.001, 0.001], [0.01, 0.01]),
+        ] {
+            inputs.push(planar(b, g, 10.0));
+            inputs.push(planar(b, g, 0.0));
+        }
+        for sliding in [true, false] {
+            let modes = [sliding; MAX_TOGETHER];
+            let mut outputs = [GroupOutput::default(); MAX_TOGETHER];
+            evaluate_together(&inputs, &modes, &mut outputs);
+            for (input, together) in inputs.iter().zip(outputs) {
+                assert_eq!(together, input.evaluate(sliding));
+            }
+        }
+    }
+
     /// The fast multiplier agrees with the monotone one to rounding, near the ellipse and
     /// far outside it, for weights close together and far apart.
     #[test]
@@ -559,10 +583,9 @@ mod tests {
                     start,
                     weight,
                     ratio_squared,
-                    largest,
                 };
-                let fast = input.lambda_by_norm(&search).expect("settles");
-                let monotone = input.lambda_monotone(&trial, &weight, start);
+                let fast = search.lambda_by_norm().expect("settles");
+                let monotone = input.lambda_monotone(&trial, &search);
                 for k in 0..2 {
                     let (a, m) = (
                         trial[k] / (1.0 + fast * weight[k]),

@@ -131,7 +131,7 @@ impl Limits {
     pub fn at(p: &Parameters, load: f64) -> Self {
         let nominal = p.get(Parameter::NominalLoad);
         let load = load.max(0.0);
-        let factor = (1.0 + p.get(Parameter::FrictionLoadSensitivity) * (load / nominal - 1.0)).max(0.0);
+        let factor = load_factor(p.get(Parameter::FrictionLoadSensitivity), load / nominal);
         let limit = |mu: f64, lever: f64| mu * factor * load * lever;
         let (mu_x, mu_y) = (
             p.get(Parameter::LongitudinalFriction),
@@ -140,6 +140,13 @@ impl Limits {
         let bore = p.get(Parameter::BoreRadius);
         Limits([limit(mu_x, 1.0), limit(mu_y, 1.0), limit(mu_y, bore)])
     }
+}
+
+/// `mu(Fz) / mu = 1 + muLoadSensitivity (Fz/Fz0 - 1)`, never below 0, at the relative
+/// load `Fz/Fz0`.
+#[inline]
+fn load_factor(sensitivity: f64, relative_load: f64) -> f64 {
+    (1.0 + sensitivity * (relative_load - 1.0)).max(0.0)
 }
 
 /// The friction limits' inverses as the load changes: what [`Limits::at`] needs of the
@@ -173,7 +180,7 @@ impl InverseLimits {
     #[inline]
     pub fn at(&self, load: f64, present: &[bool; Direction::COUNT]) -> Option<[f64; Direction::COUNT]> {
         let load = load.max(0.0);
-        let factor = (1.0 + self.sensitivity * (load * self.inverse_nominal_load - 1.0)).max(0.0);
+        let factor = load_factor(self.sensitivity, load * self.inverse_nominal_load);
         let inverse_scale = 1.0 / (factor * load);
         let mut inverse = [0.0; Direction::COUNT];
         let mut valid = true;

@@ -345,7 +345,8 @@ impl ContactSystem {
     /// blocks it was made for.
     #[inline]
     pub fn at_step_map_point(&mut self) -> (&StateSpace, &StepMap, &Blocks) {
-        if !self.current_at_map_point || !self.outputs_current {
+        // At the map's point the outputs are current too: only a move away leaves them.
+        if !self.current_at_map_point {
             self.affine.evaluate(&self.map_point, &mut self.current);
             self.current_point = self.map_point;
             self.current_at_map_point = true;

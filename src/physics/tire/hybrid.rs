@@ -193,6 +193,9 @@ impl Tire {
         // The inverse limits in hand, not read back from where they are kept.
         let mut inverse_limits = None;
         if let Some(friction) = &self.friction {
+            if !friction.together() {
+                return self.evaluate_modes();
+            }
             let e = &mut self.hybrid;
             inverse_limits = if e.limits_load == load.to_bits() {
                 e.inverse_limits
@@ -201,7 +204,7 @@ impl Tire {
                 (e.inverse_limits, e.limits_load) = (made, load.to_bits());
                 made
             };
-            if !friction.together() || inverse_limits.is_none() {
+            if inverse_limits.is_none() {
                 return self.evaluate_modes();
             }
         }

@@ -222,8 +222,6 @@ pub struct SlidingStep<'a> {
     /// them there).
     slots: [Slot; Group::COUNT * MAX_BRANCHES],
     slot_count: usize,
-    /// Whether the elements have dampers ([`Friction::damped`]).
-    damped: bool,
     /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
@@ -286,7 +284,6 @@ impl<'a> SlidingStep<'a> {
             layout,
             slots,
             slot_count,
-            damped: friction.damped(),
             stiff: Cell::new(false),
             start_sliding_rate: Cell::new(0.0),
         }
@@ -352,13 +349,7 @@ impl<'a> SlidingStep<'a> {
             adjust(slot, input, sliding, &mut rates);
         };
         let slots = self.slots();
-        if !self.damped {
-            for slot in slots {
-                let input = self.slot_input(slot, &x, &x_rates, z);
-                let sliding = modes[slot.group][slot.branch];
-                write(slot, &input, sliding, &input.evaluate(sliding));
-            }
-        } else {
+        if self.friction.damped() {
             // Damped groups project onto their ellipses by Newton steps: all side by side.
             let mut inputs = [GroupInput::default(); MAX_TOGETHER];
             let mut sliding = [false; MAX_TOGETHER];
@@ -370,6 +361,12 @@ impl<'a> SlidingStep<'a> {
             evaluate_together(&inputs[..slots.len()], &sliding, &mut outputs);
             for (j, slot) in slots.iter().enumerate() {
                 write(slot, &inputs[j], sliding[j], &outputs[j]);
+            }
+        } else {
+            for slot in slots {
+                let input = self.slot_input(slot, &x, &x_rates, z);
+                let sliding = modes[slot.group][slot.branch];
+                write(slot, &input, sliding, &input.evaluate(sliding));
             }
         }
         (rates, events)
