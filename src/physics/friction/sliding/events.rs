@@ -9,6 +9,16 @@ use crate::physics::friction::{Group, MAX_BRANCHES};
 /// A sampled event value above minus this is close enough to its limit that the limit
 /// may be touched between samples; the accurate solution is then maximised there.
 pub(super) const NEAR_EVENT: f64 = 1e-3;
+/// A group whose event value is above minus this at the start of a substep may reach its
+/// event within it: its crossing is predicted.
+const PREDICT_NEAR: f64 = 0.1;
+/// Newton steps that may settle a predicted crossing missed by a little.
+const SETTLE_STEPS: usize = 3;
+
+/// Every group and branch of a friction with `branches` branches.
+pub(super) fn candidates(branches: usize) -> impl Iterator<Item = (usize, usize)> {
+    (0..Group::COUNT).flat_map(move |g| (0..branches).map(move |i| (g, i)))
+}
 /// How often a group may change mode at one instant before its events wait for time to
 /// move on (a motion exactly along the limit, where rounding decides).
 pub(super) const MAX_CHANGES_AT_AN_INSTANT: u32 = 3;
@@ -171,7 +181,7 @@ impl SlidingStep<'_> {
         candidate: impl Fn(usize, usize) -> bool,
     ) -> Result<Option<(f64, usize, usize, Option<Vector>)>, NotConverged> {
         let branches = self.friction.branches.len();
-        let candidates = || (0..Group::COUNT).flat_map(move |g| (0..branches).map(move |i| (g, i)));
+        let candidates = || candidates(branches);
         let mut any = false;
         for (g, i) in candidates().filter(|&(g, i)| candidate(g, i)) {
             if start_events[g][i] > EVENT_TOLERANCE {
@@ -220,6 +230,97 @@ impl SlidingStep<'_> {
             .crossing(t, z, hi, modes, (g, i), (start_events[g][i], end), hi)?
             .0;
         Ok(Some((at, g, i, None)))
+    }
+
+    /// The earliest crossing within `length` that the event values and their rates at
+    /// the start predict (a straight line to the middle of the accepted band) among the
+    /// `candidate` groups and branches close to their events: its time from `t`, group
+    /// and branch. At or below zero where one is already at its event.
+    pub(super) fn predicted_crossing(
+        &self,
+        t: f64,
+        z: &Vector,
+        (start_rates, start_events): (&Vector, &Events),
+        length: f64,
+        modes: &Modes,
+        candidate: impl Fn(usize, usize) -> bool,
+    ) -> Option<(f64, usize, usize)> {
+        let branches = self.friction.branches.len();
+        let near = |g: usize, i: usize| start_events[g][i] > -PREDICT_NEAR && candidate(g, i);
+        if !candidates(branches).any(|(g, i)| near(g, i)) {
+            return None;
+        }
+        let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
+        let level = 0.5 * EVENT_TOLERANCE;
+        candidates(branches)
+            .filter(|&(g, i)| near(g, i) && slopes[g][i] > 0.0)
+            .map(|(g, i)| {
+                let at = if start_events[g][i] > level {
+                    0.0
+                } else {
+                    (1.5 * level - start_events[g][i]) / slopes[g][i]
+                };
+                (at, g, i)
+            })
+            .filter(|&(at, _, _)| at < length)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// Where the predicted crossing of group `g`, branch `i` was missed by a little (the
+    /// substep ended just short of it or just past it): short steps from `z` at `t` on
+    /// (or back), by Newton's method on its event value, each taken only where its error
+    /// estimate is within the tolerance. The time from `t` (within `room`: back by less
+    /// than the first, on by less than the second) and the state there, if it is reached
+    /// with no other `candidate` group past its tolerance.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn settle_on_event(
+        &self,
+        t: f64,
+        z: &Vector,
+        (rates, events): (&Vector, &Events),
+        (g, i): (usize, usize),
+        modes: &Modes,
+        (back, on): (f64, f64),
+        candidate: impl Fn(usize, usize) -> bool,
+    ) -> Option<(f64, Vector)> {
+        let level = 0.5 * EVENT_TOLERANCE;
+        let (mut z_at, mut rates_at, mut events_at, mut moved) = (*z, *rates, *events, 0.0);
+        for _ in 0..SETTLE_STEPS {
+            let slope = self.event_rates(t + moved, &z_at, &rates_at, &events_at, modes, back)[g][i];
+            if slope.is_nan() || slope <= 0.0 {
+                return None;
+            }
+            let dt = (1.5 * level - events_at[g][i]) / slope;
+            if !(moved + dt > -back && moved + dt < on) {
+                return None;
+            }
+            z_at = self.short_step(t + moved, &z_at, &rates_at, dt, modes)?;
+            moved += dt;
+            (rates_at, events_at) = self.rates(t + moved, &z_at, modes);
+            let e = events_at[g][i];
+            if e > level && e <= 2.0 * level {
+                let others = candidates(self.friction.branches.len())
+                    .any(|(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
+                return (!others).then_some((moved, z_at));
+            }
+        }
+        None
+    }
+
+    /// A step of `dt` seconds (either way) from `z` with its `rates` by Heun's method,
+    /// if its difference from Euler's (the error of the cruder) is within the tolerance.
+    fn short_step(&self, t: f64, z: &Vector, rates: &Vector, dt: f64, modes: &Modes) -> Option<Vector> {
+        let size = self.size();
+        let mut euler = *z;
+        for c in 0..size {
+            euler[c] += dt * rates[c];
+        }
+        let (end_rates, _) = self.rates(t + dt, &euler, modes);
+        let mut heun = *z;
+        for c in 0..size {
+            heun[c] += 0.5 * dt * (rates[c] + end_rates[c]);
+        }
+        (self.error_ratio(z, &heun, &euler) <= 1.0).then_some(heun)
     }
 
     /// The rates of every group's event value along the motion at the start of a

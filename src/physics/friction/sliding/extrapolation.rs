@@ -87,7 +87,7 @@ impl SlidingStep<'_> {
     /// tolerance: of each entry and the deflection scale, and never below the rounding of
     /// the largest entry (an entry decaying to zero next to a velocity of metres per
     /// second cannot be resolved further). At most 1: accurate.
-    fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
+    pub(super) fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
         let size = self.size();
         let floor = ROUNDING * z[..size].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         (0..size)

@@ -9,10 +9,14 @@
 //! turns its force within microseconds; a light load makes the tire's own relaxation
 //! that fast) is taken again from its start by linearly implicit Euler extrapolation,
 //! which is stable at any stiffness. Every step the explicit method finishes is its
-//! result, unchanged. After each substep the groups' event values
-//! are checked; where one crosses zero, the crossing time is found by regula falsi
-//! (Illinois) on the length of the substep, the state is taken there, the group changes
-//! mode, and integration goes on. A spring group that slides is kept on its ellipse to
+//! result, unchanged. Where the event values and their rates at the start of a substep
+//! predict a crossing within it (a straight line), the substep ends there; if it ends a
+//! little short of the crossing or past it, a few short Heun steps on or back, each
+//! within the tolerance by its own error estimate, reach it. Otherwise, after each
+//! substep the groups' event values are checked; where one crosses zero, the crossing
+//! time is found by Newton's method on the accurate solution, kept in a bracket by regula
+//! falsi (Illinois). Either way the state is taken there, the group changes mode, and
+//! integration goes on. A spring group that slides is kept on its ellipse to
 //! rounding after every substep, so the ellipse is never exceeded.
 //!
 //! The result is a function of the states, inputs and step size only (nothing is carried
@@ -33,7 +37,7 @@ use std::cell::Cell;
 use super::group::{GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, evaluate_together};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
-use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
+use events::{MAX_CHANGES_AT_AN_INSTANT, candidates, first_past_tolerance};
 
 /// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
@@ -64,6 +68,8 @@ const EXPLICIT_CAP: usize = 256;
 const STIFF_STEP: f64 = 16.0;
 
 type Modes = [[bool; MAX_BRANCHES]; Group::COUNT];
+/// Mode changes by group and branch at the current instant.
+type Changes = [[u32; MAX_BRANCHES]; Group::COUNT];
 /// Event values by group and branch.
 pub type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
 /// The event value of a group or branch that does not exist: it never crosses.
@@ -430,8 +436,7 @@ impl<'a> SlidingStep<'a> {
         // it (near an equilibrium): substeps stay below a few time constants.
         let longest = self.longest_substep();
         let mut length = h.min(0.5 * longest);
-        // Mode changes per group and branch at the current instant.
-        let mut changes = [[0_u32; MAX_BRANCHES]; Group::COUNT];
+        let mut changes: Changes = [[0; MAX_BRANCHES]; Group::COUNT];
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
         // substeps the step's length needs, and a margin for events (never more than
@@ -453,6 +458,19 @@ impl<'a> SlidingStep<'a> {
             }
             let (start_rates, start_events) = self.rates(t, &z, &modes);
             let start = (&start_rates, &start_events);
+            // A group the motion brings to its event within the substep: the substep ends
+            // where its crossing is predicted, so that it locates the crossing itself.
+            let planned = length;
+            let mut predicted = self.predicted_crossing(t, &z, start, length, &modes, |g, i| {
+                changes[g][i] < MAX_CHANGES_AT_AN_INSTANT
+            });
+            if let Some((at, g, i)) = predicted {
+                if at <= 0.0 {
+                    self.switch_mode(&mut z, &mut modes, &mut changes, (g, i));
+                    continue;
+                }
+                length = at;
+            }
             let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, start, length, &modes)
             else {
                 length *= 0.25;
@@ -461,12 +479,14 @@ impl<'a> SlidingStep<'a> {
                 }
                 continue;
             };
-            let mut end_events = self.events(t + length, &z_end, &modes);
+            let (end_rates, mut end_events) = self.rates(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
             if first_past_tolerance(&end_events).is_none()
                 && let Some((sample, g, i)) = interior
                 && start_events[g][i] <= EVENT_TOLERANCE
+                // The predicted group nears its limit towards the end, as it should.
+                && predicted.is_none_or(|(_, pg, pi)| (pg, pi) != (g, i))
                 && let Some(at) = self.touches_near(
                     t,
                     &z,
@@ -479,16 +499,44 @@ impl<'a> SlidingStep<'a> {
             {
                 length = at;
                 z_end = z_at;
+                predicted = None;
                 end_events = self.events(t + at, &z_at, &modes);
             }
             let candidate = |g: usize, i: usize| {
                 end_events[g][i] > EVENT_TOLERANCE && changes[g][i] < MAX_CHANGES_AT_AN_INSTANT
             };
-            let first = self.earliest_crossing(
-                (t, &z, length, &modes),
-                (&start_rates, &start_events, &end_events),
-                candidate,
-            );
+            // The predicted crossing reached (within the tolerance, before any other):
+            // the group changes mode at the end of the substep; missed by a little, a
+            // short step on from there (or back) reaches it.
+            let settled = predicted.and_then(|(_, g, i)| {
+                let others = candidates(self.friction.branches.len())
+                    .any(|(h, j)| (h, j) != (g, i) && candidate(h, j));
+                if others {
+                    return None;
+                }
+                let e = end_events[g][i];
+                if e > 0.5 * EVENT_TOLERANCE && e <= EVENT_TOLERANCE {
+                    return Some((length, g, i, Some(z_end)));
+                }
+                self.settle_on_event(
+                    t + length,
+                    &z_end,
+                    (&end_rates, &end_events),
+                    (g, i),
+                    &modes,
+                    (length, h - t - length),
+                    |h, j| changes[h][j] < MAX_CHANGES_AT_AN_INSTANT,
+                )
+                .map(|(dt, z_at)| (length + dt, g, i, Some(z_at)))
+            });
+            let first = match settled {
+                Some(event) => Ok(Some(event)),
+                None => self.earliest_crossing(
+                    (t, &z, length, &modes),
+                    (&start_rates, &start_events, &end_events),
+                    candidate,
+                ),
+            };
             // An event inside the substep that could not be located (a point inside it
             // not reached to the tolerance): a shorter substep.
             let Ok(first) = first else {
@@ -504,7 +552,11 @@ impl<'a> SlidingStep<'a> {
                     t += length;
                     changes = [[0; MAX_BRANCHES]; Group::COUNT];
                     self.hold_on_limits(&mut z, &modes);
-                    length *= growth;
+                    length = if predicted.is_some() {
+                        planned
+                    } else {
+                        length * growth
+                    };
                     // Substeps that cannot finish the step within the budget at the
                     // length the error control allows: crawling, known early.
                     let left = budget.saturating_sub(substep + 1);
@@ -521,12 +573,10 @@ impl<'a> SlidingStep<'a> {
                         t += at;
                         changes = [[0; MAX_BRANCHES]; Group::COUNT];
                     }
-                    // On the limit before and after the change (a spring group that
-                    // stops sliding sticks from the limit, not from just outside it).
-                    self.hold_on_limits(&mut z, &modes);
-                    modes[g][i] = !modes[g][i];
-                    changes[g][i] += 1;
-                    self.hold_on_limits(&mut z, &modes);
+                    if predicted.is_some() {
+                        length = planned;
+                    }
+                    self.switch_mode(&mut z, &mut modes, &mut changes, (g, i));
                 }
             }
         }
@@ -536,6 +586,16 @@ impl<'a> SlidingStep<'a> {
         *x = self.layout.unpack(&z, sliders);
         sliders.sliding = modes;
         Ok(())
+    }
+
+    /// Group `g`, branch `i` changes mode at the current instant, on its limit before
+    /// and after the change (a spring group that stops sliding sticks from the limit,
+    /// not from just outside it).
+    fn switch_mode(&self, z: &mut Vector, modes: &mut Modes, changes: &mut Changes, (g, i): (usize, usize)) {
+        self.hold_on_limits(z, modes);
+        modes[g][i] = !modes[g][i];
+        changes[g][i] += 1;
+        self.hold_on_limits(z, modes);
     }
 
     /// A deflection typical of the elements: the largest elastic travel to a limit.
@@ -588,10 +648,15 @@ impl<'a> SlidingStep<'a> {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
         let mut inside = true;
+        // Whether a deflection was moved: only then are the states and offsets written
+        // back (through the coupled vector they would round), so that the outputs at
+        // states within every limit are exactly the linear model's.
+        let mut moved = false;
         for e in layout.elements() {
             if self.limits.0[e.direction] <= 0.0 {
                 z[e.first..e.first + layout.branches].fill(0.0);
                 inside = false;
+                moved = true;
             }
         }
         for group in self.friction.groups() {
@@ -610,8 +675,11 @@ impl<'a> SlidingStep<'a> {
                 let force = input.spring_force();
                 let utilisation = input.utilisation(&force);
                 inside &= utilisation < 1.0;
-                if utilisation > 1.0 {
+                // On its limit to within the event tolerance (as a step leaves a group
+                // that slides, or ends at its event), a force stays where it is.
+                if utilisation > 1.0 + EVENT_TOLERANCE {
                     slot.put_on_ellipse(&mut z, utilisation);
+                    moved = true;
                 }
                 let cosine = input.outward_cosine(&force);
                 (pushed_out_slides && utilisation > 1.0 + 0.5 * EVENT_TOLERANCE && cosine >= 0.0)
@@ -623,7 +691,9 @@ impl<'a> SlidingStep<'a> {
             }
         }
         self.start_sliding_rate.set(fastest);
-        *x = layout.unpack(&z, sliders);
+        if moved {
+            *x = layout.unpack(&z, sliders);
+        }
         inside
     }
 
@@ -631,6 +701,10 @@ impl<'a> SlidingStep<'a> {
     /// make at these states and inputs: the sticking force where it is inside the limit,
     /// the closest point of the ellipse where it is not.
     pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
+        let frictionless = |(d, element): (usize, &Option<_>)| element.is_some() && self.limits.0[d] <= 0.0;
+        if !self.friction.damped() && !self.friction.elements.iter().enumerate().any(frictionless) {
+            return [0.0; Direction::COUNT];
+        }
         let z = self.layout.pack(x, sliders);
         let states = self.layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
