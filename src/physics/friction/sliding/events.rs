@@ -12,6 +12,16 @@ pub(super) const NEAR_EVENT: f64 = 1e-3;
 /// A group whose event value is above minus this at the start of a substep may reach its
 /// event within it: its crossing is predicted.
 const PREDICT_NEAR: f64 = 0.1;
+/// An event is placed where its value is past zero by half the event tolerance or more,
+/// and by the tolerance at most ([`at_event`]); searches aim at the middle of that band.
+const LEVEL: f64 = 0.5 * EVENT_TOLERANCE;
+const AIM: f64 = 1.5 * LEVEL;
+
+/// Whether an event value is in the band where its event is placed.
+fn at_event(value: f64) -> bool {
+    value > LEVEL && value <= EVENT_TOLERANCE
+}
+
 /// Newton steps that may settle a predicted crossing missed by a little.
 const SETTLE_STEPS: usize = 3;
 
@@ -192,14 +202,13 @@ impl SlidingStep<'_> {
         if !any {
             return Ok(None);
         }
-        let level = 0.5 * EVENT_TOLERANCE;
         let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
         let estimate = |g: usize, i: usize, end: f64, length: f64| {
             let (start, slope) = (start_events[g][i], slopes[g][i]);
-            let newton = (slope > 0.0).then(|| (1.5 * level - start) / slope);
+            let newton = (slope > 0.0).then(|| (AIM - start) / slope);
             newton
                 .filter(|&tau| tau > 0.0 && tau < length)
-                .unwrap_or_else(|| length * (level - start) / (end - start))
+                .unwrap_or_else(|| length * (LEVEL - start) / (end - start))
         };
         let Some((mut g, mut i)) = candidates().filter(|&(g, i)| candidate(g, i)).min_by(|a, b| {
             let (ea, eb) = (
@@ -251,14 +260,13 @@ impl SlidingStep<'_> {
             return None;
         }
         let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
-        let level = 0.5 * EVENT_TOLERANCE;
         candidates(branches)
             .filter(|&(g, i)| near(g, i) && slopes[g][i] > 0.0)
             .map(|(g, i)| {
-                let at = if start_events[g][i] > level {
+                let at = if start_events[g][i] > LEVEL {
                     0.0
                 } else {
-                    (1.5 * level - start_events[g][i]) / slopes[g][i]
+                    (AIM - start_events[g][i]) / slopes[g][i]
                 };
                 (at, g, i)
             })
@@ -266,12 +274,12 @@ impl SlidingStep<'_> {
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
-    /// Where the predicted crossing of group `g`, branch `i` was missed by a little (the
-    /// substep ended just short of it or just past it): short steps from `z` at `t` on
-    /// (or back), by Newton's method on its event value, each taken only where its error
-    /// estimate is within the tolerance. The time from `t` (within `room`: back by less
-    /// than the first, on by less than the second) and the state there, if it is reached
-    /// with no other `candidate` group past its tolerance.
+    /// Where the predicted crossing of group `g`, branch `i` is reached, at `z` (the end of
+    /// the substep) or a little from it (the substep ended just short of it or just past
+    /// it): short steps on (or back), by Newton's method on its event value, each taken
+    /// only where its error estimate is within the tolerance. The time from `t` (within
+    /// `room`: back by less than the first, on by less than the second) and the state
+    /// there, if it is reached with no other `candidate` group past its tolerance.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn settle_on_event(
         &self,
@@ -283,26 +291,27 @@ impl SlidingStep<'_> {
         (back, on): (f64, f64),
         candidate: impl Fn(usize, usize) -> bool,
     ) -> Option<(f64, Vector)> {
-        let level = 0.5 * EVENT_TOLERANCE;
         let (mut z_at, mut rates_at, mut events_at, mut moved) = (*z, *rates, *events, 0.0);
-        for _ in 0..SETTLE_STEPS {
+        for steps in 0..=SETTLE_STEPS {
+            if at_event(events_at[g][i]) {
+                let others = candidates(self.friction.branches.len())
+                    .any(|(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
+                return (!others).then_some((moved, z_at));
+            }
+            if steps == SETTLE_STEPS {
+                break;
+            }
             let slope = self.event_rates(t + moved, &z_at, &rates_at, &events_at, modes, back)[g][i];
             if slope.is_nan() || slope <= 0.0 {
                 return None;
             }
-            let dt = (1.5 * level - events_at[g][i]) / slope;
+            let dt = (AIM - events_at[g][i]) / slope;
             if !(moved + dt > -back && moved + dt < on) {
                 return None;
             }
             z_at = self.short_step(t + moved, &z_at, &rates_at, dt, modes)?;
             moved += dt;
             (rates_at, events_at) = self.rates(t + moved, &z_at, modes);
-            let e = events_at[g][i];
-            if e > level && e <= 2.0 * level {
-                let others = candidates(self.friction.branches.len())
-                    .any(|(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
-                return (!others).then_some((moved, z_at));
-            }
         }
         None
     }
@@ -366,11 +375,8 @@ impl SlidingStep<'_> {
         (start, end): (f64, f64),
         guess: f64,
     ) -> Result<(f64, Option<(Vector, Events)>), NotConverged> {
-        let level = 0.5 * EVENT_TOLERANCE;
-        // Accepted: an event value in (level, 2 level]; Newton aims at its middle.
-        let aim = 1.5 * level;
         let (mut lo, mut hi, mut reached) = (0.0, length, None);
-        let (mut e_lo, mut e_hi) = (start.min(level) - level, end - level);
+        let (mut e_lo, mut e_hi) = (start.min(LEVEL) - LEVEL, end - LEVEL);
         let mut guess = Some(guess);
         let mut side = 0;
         for _ in 0..80 {
@@ -389,14 +395,14 @@ impl SlidingStep<'_> {
             let z_tau = self.substep_plain(t, z, tau, modes).ok_or(NotConverged)?;
             let (rates, events) = self.rates(t + tau, &z_tau, modes);
             let value = events[g][i];
-            let e = value - level;
+            let e = value - LEVEL;
             // Past the crossing by less than the event tolerance itself: as close as
             // the event is defined.
-            if e > 0.0 && e <= level {
+            if e > 0.0 && e <= LEVEL {
                 return Ok((tau, Some((z_tau, events))));
             }
             let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length)[g][i];
-            guess = (slope > 0.0).then(|| tau + (aim - value) / slope);
+            guess = (slope > 0.0).then(|| tau + (AIM - value) / slope);
             if e > 0.0 {
                 (hi, reached) = (tau, Some((z_tau, events)));
                 e_hi = e;

@@ -514,10 +514,6 @@ impl<'a> SlidingStep<'a> {
                 if others {
                     return None;
                 }
-                let e = end_events[g][i];
-                if e > 0.5 * EVENT_TOLERANCE && e <= EVENT_TOLERANCE {
-                    return Some((length, g, i, Some(z_end)));
-                }
                 self.settle_on_event(
                     t + length,
                     &z_end,
@@ -701,10 +697,6 @@ impl<'a> SlidingStep<'a> {
     /// make at these states and inputs: the sticking force where it is inside the limit,
     /// the closest point of the ellipse where it is not.
     pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
-        let frictionless = |(d, element): (usize, &Option<_>)| element.is_some() && self.limits.0[d] <= 0.0;
-        if !self.friction.damped() && !self.friction.elements.iter().enumerate().any(frictionless) {
-            return [0.0; Direction::COUNT];
-        }
         let z = self.layout.pack(x, sliders);
         let states = self.layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
