@@ -111,12 +111,7 @@ def load(outdir: Path):
         state = s.deserializeFMUState((outdir / f"{case}.state").read_bytes())
         s.setFMUState(state)
         s.freeFMUState(state)
-        readback = {
-            "model": s.getInt64([fc.MODEL_VR])[0],
-            "friction": s.getInt64([fc.FRICTION_VR])[0],
-            "params": dict(zip(fc.ALL_PARAMETER_VR, s.getFloat64(list(fc.ALL_PARAMETER_VR.values())))),
-            "inputs": s.getFloat64(fc.IN_VRS),
-        }
+        readback = fc.configuration_readback(s.getInt64, s.getFloat64, fc.ALL_PARAMETER_VR)
         Y, _ = run(s, iface, t, warmup, end)
         np.save(outdir / f"{case}.load.npy", Y)
         (outdir / f"{case}.load.json").write_text(json.dumps(readback))

@@ -110,6 +110,17 @@ def extract_fmu(dest):
     return extract(str(FMU_PATH), unzipdir=str(dest))
 
 
+def configuration_readback(get_integer, get_real, parameters):
+    """What an instance reports of its configuration (selectors, the `parameters` by name
+    and value reference, inputs) through one FMI version's integer and real getters."""
+    return {
+        "model": get_integer([MODEL_VR])[0],
+        "friction": get_integer([FRICTION_VR])[0],
+        "params": dict(zip(parameters, get_real(list(parameters.values())))),
+        "inputs": get_real(IN_VRS),
+    }
+
+
 def read_md():
     from fmpy import read_model_description
 

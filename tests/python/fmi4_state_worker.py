@@ -71,12 +71,7 @@ def load(outdir: Path):
             state = s.deSerializeFMUstate(blob)
             s.setFMUstate(state)
             s.freeFMUstate(state)
-            readback = {
-                "model": s.getInteger([fc.MODEL_VR])[0],
-                "friction": s.getInteger([fc.FRICTION_VR])[0],
-                "params": dict(zip(fc.PARAMETER_VR, s.getReal(list(fc.PARAMETER_VR.values())))),
-                "inputs": s.getReal(fc.IN_VRS),
-            }
+            readback = fc.configuration_readback(s.getInteger, s.getReal, fc.PARAMETER_VR)
             Y, _ = fc.drive(s, t, seq, WARMUP, WARMUP + CONTINUE)
             np.save(outdir / f"{case}.load.npy", Y)
             (outdir / f"{case}.load.json").write_text(json.dumps(readback))

@@ -47,7 +47,7 @@ impl Instance {
         self.require_model_exchange(Call::GetContinuousValues)?;
         let values: &mut ContinuousStates = fixed_length("derivatives", values)?;
         self.sync_tire()?;
-        copy_in_halves(values, self.tire.continuous_rates());
+        *values = *self.tire.continuous_rates();
         Ok(())
     }
 
@@ -97,16 +97,6 @@ impl Instance {
     pub fn completed_integrator_step(&mut self) -> CallResult {
         self.require_model_exchange(Call::CompletedIntegratorStep)
     }
-}
-
-/// `*to = *from`, as two halves: each is moved in registers, where the whole (144 bytes,
-/// past what the compiler copies inline) would be a call to memcpy.
-#[inline]
-fn copy_in_halves(to: &mut ContinuousStates, from: &ContinuousStates) {
-    const HALF: usize = CONTINUOUS_STATES / 2;
-    let (to_first, to_second) = to.split_at_mut(HALF);
-    to_first.copy_from_slice(&from[..HALF]);
-    to_second.copy_from_slice(&from[HALF..]);
 }
 
 #[cold]
