@@ -20,6 +20,10 @@
 //! vx = 5 m/s, with Coulomb and Brush. "sliding": vy = -0.5, vsx = -0.3 m/s, both
 //! directions sliding on the friction ellipse, whose force turns towards the slip within
 //! microseconds; "sticking": the same tire at vy = vsx = -2e-6 m/s, below 0.1 Fmax.
+//! "sliding, varying": the slide with inputs that change every step as in a vehicle
+//! model (vx = 5 + 0.001 (k mod 1000), Fz = 100 (1 + 0.02 sin 2t), vy = -0.5 + 0.1 sin t,
+//! steerRate = 0.05 cos t, vsx = -0.3 + 0.01 sin t), so that every step starts off the
+//! equilibrium of its inputs and relaxes towards it.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -103,8 +107,12 @@ fn stiff_light_tire(fmu: &fmi_sys::fmi2::Fmi2Binding, steps: usize, passes: usiz
     // Sliding steps of this tire cost up to milliseconds: far fewer of them per pass.
     let (steps, passes) = ((steps / 100).max(20), passes.min(5));
     println!(
-        "\n{:<26} {:>24} {:>24} {:>7}",
-        "stiff light tire, ns/step", "sticking (min-max)", "sliding (min-max)", "ratio"
+        "\n{:<26} {:>24} {:>24} {:>7} {:>28}",
+        "stiff light tire, ns/step",
+        "sticking (min-max)",
+        "sliding (min-max)",
+        "ratio",
+        "sliding, varying (min-max)"
     );
     let reals = [
         (vr::CALPHA, 1e7),
@@ -118,8 +126,8 @@ fn stiff_light_tire(fmu: &fmi_sys::fmi2::Fmi2Binding, steps: usize, passes: usiz
         for (law, law_name) in [(2, "Coulomb"), (3, "Brush")] {
             let mut cells = Vec::new();
             let mut medians = Vec::new();
-            for slip in [-2e-6, -1.0] {
-                let table = vec![[5.0, 0.5 * slip, 0.0, 0.3 * slip, 100.0]; steps];
+            let held = |slip: f64| vec![[5.0, 0.5 * slip, 0.0, 0.3 * slip, 100.0]; steps];
+            for table in [held(-2e-6), held(-1.0), varying_stiff_slide(steps, step)] {
                 let integers = [(vr::MODEL, model), (vr::FRICTION, law)];
                 let mut slave = Slave::configured(fmu, "stiff", &integers, &reals);
                 let mut outputs = [0.0; 9];
@@ -132,12 +140,29 @@ fn stiff_light_tire(fmu: &fmi_sys::fmi2::Fmi2Binding, steps: usize, passes: usiz
                 cells.push(cell);
             }
             println!(
-                "{:<26} {:>24} {:>24} {:>7.1}",
+                "{:<26} {:>24} {:>24} {:>7.1} {:>28}",
                 format!("{model_name} {law_name}"),
                 cells[0],
                 cells[1],
-                medians[1] / medians[0]
+                medians[1] / medians[0],
+                cells[2]
             );
         }
     }
+}
+
+/// The stiff light tire's slide with every input changing from step to step (see the top).
+fn varying_stiff_slide(steps: usize, step: f64) -> Vec<[f64; 5]> {
+    (0..steps)
+        .map(|k| {
+            let t = k as f64 * step;
+            [
+                5.0 + 1e-3 * (k % 1000) as f64,
+                -0.5 + 0.1 * t.sin(),
+                0.05 * t.cos(),
+                -0.3 + 0.01 * t.sin(),
+                100.0 * (1.0 + 0.02 * (2.0 * t).sin()),
+            ]
+        })
+        .collect()
 }

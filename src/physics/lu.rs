@@ -9,16 +9,18 @@
 #![allow(clippy::needless_range_loop)]
 
 /// The LU factors of an `N`x`N` matrix over its first `size` rows and columns (the rest
-/// unused), with partial pivoting.
-pub struct Factors<const N: usize> {
-    lu: [[f64; N]; N],
+/// unused), with partial pivoting, made in the matrix's own storage (a stiff substep
+/// factors one matrix per row: copies of the whole array would cost more than the
+/// elimination of its few entries in use).
+pub struct Factors<'m, const N: usize> {
+    lu: &'m [[f64; N]; N],
     pivots: [usize; N],
     size: usize,
 }
 
-impl<const N: usize> Factors<N> {
-    /// `None` if the matrix is singular (or not finite).
-    pub fn new(mut lu: [[f64; N]; N], size: usize) -> Option<Self> {
+impl<'m, const N: usize> Factors<'m, N> {
+    /// Factors `matrix` in place; `None` if it is singular (or not finite).
+    pub fn new(lu: &'m mut [[f64; N]; N], size: usize) -> Option<Self> {
         let mut pivots = [0; N];
         for k in 0..size {
             let p = (k..size).fold(k, |best, r| {
@@ -32,7 +34,10 @@ impl<const N: usize> Factors<N> {
             if !(pivot != 0.0 && pivot.is_finite()) {
                 return None;
             }
-            lu.swap(k, p);
+            if p != k {
+                let (upper, lower) = lu.split_at_mut(p);
+                upper[k][..size].swap_with_slice(&mut lower[0][..size]);
+            }
             pivots[k] = p;
             for r in k + 1..size {
                 let factor = lu[r][k] / pivot;
@@ -123,7 +128,7 @@ mod tests {
         for r in 0..size {
             b[r] = (0..size).map(|c| rows[r][c] * solution[c]).sum();
         }
-        let factored = Factors::new(matrix, size).expect("regular").solve(b);
+        let factored = Factors::new(&mut matrix.clone(), size).expect("regular").solve(b);
         let eliminated = solve(matrix, b, size).expect("regular");
         for r in 0..size {
             assert!((factored[r] - solution[r]).abs() < 1e-14, "{r}: {}", factored[r]);
@@ -135,7 +140,7 @@ mod tests {
         }
         let mut singular = matrix;
         singular[3] = [0.0; SIZE];
-        assert!(Factors::new(singular, size).is_none());
+        assert!(Factors::new(&mut singular.clone(), size).is_none());
         assert!(solve(singular, b, size).is_none());
     }
 }

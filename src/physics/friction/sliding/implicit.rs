@@ -21,7 +21,7 @@ pub(super) const IMPLICIT_SEQUENCE: [usize; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10
 
 /// A square matrix over the entries of the coupled vector, by row (only the entries in
 /// use are read).
-type Matrix = [[f64; SIZE]; SIZE];
+pub(super) type Matrix = [[f64; SIZE]; SIZE];
 
 /// The Jacobian of a piece's right-hand side.
 pub(super) type Jacobian = Matrix;
@@ -46,30 +46,30 @@ impl SlidingStep<'_> {
         jacobian
     }
 
-    /// `n` linearly implicit Euler steps over `[t, t + length]`; `None` if a matrix
-    /// `I - s J` is singular. Also where a limit may have been touched, as the explicit
-    /// row finds it, and the sample spacing.
+    /// `n` linearly implicit Euler steps over `[t, t + length]`, `I - s J` factored in
+    /// `work` (only its entries in use are written); `None` if that matrix is singular.
+    /// Also where a limit may have been touched, as the explicit row finds it, and the
+    /// sample spacing.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_row(
         &self,
         t: f64,
         z: &Vector,
         (start_rates, start_events): (&Vector, &Events),
-        jacobian: &Jacobian,
+        (jacobian, work): (&Jacobian, &mut Matrix),
         length: f64,
         n: usize,
         modes: &Modes,
     ) -> Option<Row> {
         let size = self.size();
         let s = length / n as f64;
-        let mut matrix: Matrix = [[0.0; SIZE]; SIZE];
         for r in 0..size {
             for c in 0..size {
-                matrix[r][c] = -s * jacobian[r][c];
+                work[r][c] = -s * jacobian[r][c];
             }
-            matrix[r][r] += 1.0;
+            work[r][r] += 1.0;
         }
-        let lu = Factors::new(matrix, size)?;
+        let lu = Factors::new(work, size)?;
         let mut current = *z;
         let mut rates = *start_rates;
         let mut search = InteriorSearch::new(start_events);

@@ -433,9 +433,12 @@ impl<'a> SlidingStep<'a> {
         let mut t = 0.0;
         // The midpoint rule's parasitic solution grows where a substep of the finest row
         // is long against the fastest time constant; its error estimate can then miss
-        // it (near an equilibrium): substeps stay below a few time constants.
+        // it (near an equilibrium): substeps stay below a few time constants. The
+        // linearly implicit substeps have no such bound: they try the whole step first
+        // (a stiff slide is smooth once its force has turned, within microseconds, so one
+        // substep usually takes the step), and the error control shortens them.
         let longest = self.longest_substep();
-        let mut length = h.min(0.5 * longest);
+        let mut length = if self.stiff.get() { h } else { h.min(0.5 * longest) };
         let mut changes: Changes = [[0; MAX_BRANCHES]; Group::COUNT];
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
