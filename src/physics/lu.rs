@@ -19,7 +19,7 @@ pub struct Factors<'m, const N: usize> {
 }
 
 impl<'m, const N: usize> Factors<'m, N> {
-    /// Factors `matrix` in place; `None` if it is singular (or not finite).
+    /// Factors `lu` in place; `None` if it is singular (or not finite).
     pub fn new(lu: &'m mut [[f64; N]; N], size: usize) -> Option<Self> {
         let mut pivots = [0; N];
         for k in 0..size {
