@@ -135,9 +135,8 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
     let count = inputs.len().min(MAX_TOGETHER);
     let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
     let mut utilisations = [0.0; MAX_TOGETHER];
-    // The searches not settled by Newton's method, and those whose steps go on.
+    // The searches whose Newton steps go on.
     let mut searches: [Option<Search>; MAX_TOGETHER] = [None; MAX_TOGETHER];
-    let mut searching = [false; MAX_TOGETHER];
     let mut lambdas = [0.0; MAX_TOGETHER];
     let mut pending = 0;
     for j in 0..count {
@@ -152,7 +151,7 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
         match input.projection(&trial, utilisation) {
             Projection::Settled(lambda) => lambdas[j] = lambda,
             Projection::Search(search) => {
-                (lambdas[j], searches[j], searching[j]) = (search.start, Some(search), true);
+                (lambdas[j], searches[j]) = (search.start, Some(search));
                 pending += 1;
             }
         }
@@ -162,18 +161,17 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
             break;
         }
         for j in 0..count {
-            let (true, Some(search)) = (searching[j], &searches[j]) else {
-                continue;
-            };
+            let Some(search) = &searches[j] else { continue };
             match search.newton_step(lambdas[j]) {
                 Some(Step::Next(lambda)) => lambdas[j] = lambda,
                 Some(Step::Settled(lambda)) => {
-                    (lambdas[j], searches[j], searching[j]) = (lambda, None, false);
+                    (lambdas[j], searches[j]) = (lambda, None);
                     pending -= 1;
                 }
-                // Out of the admissible range: the monotone search (below).
+                // Out of the admissible range: the monotone search from its start.
                 None => {
-                    searching[j] = false;
+                    lambdas[j] = inputs[j].lambda_monotone(&trials[j], search);
+                    searches[j] = None;
                     pending -= 1;
                 }
             }
@@ -184,6 +182,7 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
         if !(input.damped() && sliding[j]) {
             continue;
         }
+        // Not settled within the Newton steps.
         if let Some(search) = &searches[j] {
             lambdas[j] = input.lambda_monotone(&trials[j], search);
         }

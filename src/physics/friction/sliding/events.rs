@@ -26,7 +26,7 @@ fn at_event(value: f64) -> bool {
 const SETTLE_STEPS: usize = 3;
 
 /// Every group and branch of a friction with `branches` branches.
-pub(super) fn candidates(branches: usize) -> impl Iterator<Item = (usize, usize)> {
+fn candidates(branches: usize) -> impl Iterator<Item = (usize, usize)> {
     (0..Group::COUNT).flat_map(move |g| (0..branches).map(move |i| (g, i)))
 }
 /// How often a group may change mode at one instant before its events wait for time to
@@ -191,9 +191,8 @@ impl SlidingStep<'_> {
         candidate: impl Fn(usize, usize) -> bool,
     ) -> Result<Option<(f64, usize, usize, Option<Vector>)>, NotConverged> {
         let branches = self.friction.branches.len();
-        let candidates = || candidates(branches);
         let mut any = false;
-        for (g, i) in candidates().filter(|&(g, i)| candidate(g, i)) {
+        for (g, i) in candidates(branches).filter(|&(g, i)| candidate(g, i)) {
             if start_events[g][i] > EVENT_TOLERANCE {
                 return Ok(Some((0.0, g, i, None)));
             }
@@ -210,13 +209,16 @@ impl SlidingStep<'_> {
                 .filter(|&tau| tau > 0.0 && tau < length)
                 .unwrap_or_else(|| length * (LEVEL - start) / (end - start))
         };
-        let Some((mut g, mut i)) = candidates().filter(|&(g, i)| candidate(g, i)).min_by(|a, b| {
-            let (ea, eb) = (
-                estimate(a.0, a.1, end_events[a.0][a.1], length),
-                estimate(b.0, b.1, end_events[b.0][b.1], length),
-            );
-            ea.total_cmp(&eb)
-        }) else {
+        let Some((mut g, mut i)) = candidates(branches)
+            .filter(|&(g, i)| candidate(g, i))
+            .min_by(|a, b| {
+                let (ea, eb) = (
+                    estimate(a.0, a.1, end_events[a.0][a.1], length),
+                    estimate(b.0, b.1, end_events[b.0][b.1], length),
+                );
+                ea.total_cmp(&eb)
+            })
+        else {
             return Ok(None);
         };
         let (mut hi, mut end) = (length, end_events[g][i]);
@@ -226,9 +228,7 @@ impl SlidingStep<'_> {
             let Some((z_at, events_at)) = reached else {
                 return Ok(Some((at, g, i, None)));
             };
-            let earlier = candidates()
-                .find(|&(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
-            match earlier {
+            match self.other_past_tolerance(&events_at, (g, i), &candidate) {
                 None => return Ok(Some((at, g, i, Some(z_at)))),
                 Some((h, j)) => {
                     (g, i, hi, end) = (h, j, at, events_at[h][j]);
@@ -294,9 +294,8 @@ impl SlidingStep<'_> {
         let (mut z_at, mut rates_at, mut events_at, mut moved) = (*z, *rates, *events, 0.0);
         for steps in 0..=SETTLE_STEPS {
             if at_event(events_at[g][i]) {
-                let others = candidates(self.friction.branches.len())
-                    .any(|(h, j)| (h, j) != (g, i) && candidate(h, j) && events_at[h][j] > EVENT_TOLERANCE);
-                return (!others).then_some((moved, z_at));
+                let others = self.other_past_tolerance(&events_at, (g, i), &candidate);
+                return others.is_none().then_some((moved, z_at));
             }
             if steps == SETTLE_STEPS {
                 break;
@@ -314,6 +313,18 @@ impl SlidingStep<'_> {
             (rates_at, events_at) = self.rates(t + moved, &z_at, modes);
         }
         None
+    }
+
+    /// The first `candidate` group and branch other than `(g, i)` past its tolerance in
+    /// `events`: its event came first, or at the same time.
+    pub(super) fn other_past_tolerance(
+        &self,
+        events: &Events,
+        (g, i): (usize, usize),
+        candidate: impl Fn(usize, usize) -> bool,
+    ) -> Option<(usize, usize)> {
+        candidates(self.friction.branches.len())
+            .find(|&(h, j)| (h, j) != (g, i) && candidate(h, j) && events[h][j] > EVENT_TOLERANCE)
     }
 
     /// A step of `dt` seconds (either way) from `z` with its `rates` by Heun's method,

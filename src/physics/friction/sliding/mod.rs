@@ -37,7 +37,7 @@ use std::cell::Cell;
 use super::group::{GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, evaluate_together};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
-use events::{MAX_CHANGES_AT_AN_INSTANT, candidates, first_past_tolerance};
+use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 
 /// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
@@ -511,10 +511,12 @@ impl<'a> SlidingStep<'a> {
             // The predicted crossing reached (within the tolerance, before any other):
             // the group changes mode at the end of the substep; missed by a little, a
             // short step on from there (or back) reaches it.
+            let may_change = |g: usize, i: usize| changes[g][i] < MAX_CHANGES_AT_AN_INSTANT;
             let settled = predicted.and_then(|(_, g, i)| {
-                let others = candidates(self.friction.branches.len())
-                    .any(|(h, j)| (h, j) != (g, i) && candidate(h, j));
-                if others {
+                if self
+                    .other_past_tolerance(&end_events, (g, i), may_change)
+                    .is_some()
+                {
                     return None;
                 }
                 self.settle_on_event(
@@ -524,7 +526,7 @@ impl<'a> SlidingStep<'a> {
                     (g, i),
                     &modes,
                     (length, h - t - length),
-                    |h, j| changes[h][j] < MAX_CHANGES_AT_AN_INSTANT,
+                    may_change,
                 )
                 .map(|(dt, z_at)| (length + dt, g, i, Some(z_at)))
             });
