@@ -58,19 +58,24 @@ fn small_sin_cos(x: f64) -> (f64, f64) {
     // (-1)^j / (2j + 1)! and (-1)^j / (2j)!, by Horner in x^2 (multiplications only).
     const SIN: [f64; 7] = taylor(1);
     const COS: [f64; 8] = taylor(0);
-    // The terms that matter at this size: a quasi-steady step turns by a milliradian.
-    let (sin_terms, cos_terms) = match x.abs() {
-        a if a < 1e-3 => (3, 4),
-        a if a < 3e-2 => (5, 6),
-        _ => (SIN.len(), COS.len()),
-    };
+    // The terms that matter at this size (a quasi-steady step turns by a milliradian),
+    // each degree its own straight line of multiply-adds.
     let x2 = x * x;
-    (x * horner(&SIN[..sin_terms], x2), horner(&COS[..cos_terms], x2))
+    match x.abs() {
+        a if a < 1e-3 => (x * horner::<3>(&SIN, x2), horner::<4>(&COS, x2)),
+        a if a < 3e-2 => (x * horner::<5>(&SIN, x2), horner::<6>(&COS, x2)),
+        _ => (x * horner::<7>(&SIN, x2), horner::<8>(&COS, x2)),
+    }
 }
 
-/// `sum c_j x^j`.
-fn horner(coefficients: &[f64], x: f64) -> f64 {
-    coefficients.iter().rev().fold(0.0, |sum, c| sum * x + c)
+/// `sum c_j x^j` over the first `N` coefficients.
+#[inline(always)]
+fn horner<const N: usize>(coefficients: &[f64], x: f64) -> f64 {
+    let mut sum = coefficients[N - 1];
+    for j in (0..N - 1).rev() {
+        sum = sum * x + coefficients[j];
+    }
+    sum
 }
 
 /// `(-1)^j / (2j + first)!` for j = 0..N.
@@ -115,21 +120,94 @@ pub struct Step {
 /// `U2 = theta + h/2 phi1(z/2) f`, `U3 = theta + h phi1(z) (f + D2)`,
 /// `end = theta + h phi1(z) f + h (16 phi3 - 48 phi4)(z) D2 + h (12 phi4 - 2 phi3)(z) D3`,
 /// `z = h slope`, `Di = g(Ui) - g(theta)`; the embedded solution drops the `phi4` terms.
-pub fn step<F: AngleFlow>(flow: &F, start: &Angle, (rate, slope): (f64, f64), h: f64) -> Step {
-    let z = h * slope;
-    let [phi1, _, phi3, phi4] = scalar_phi_functions_to_fourth(z);
-    let half_phi1 = scalar_phi_functions(0.5 * z).1;
-    let remainder = |delta: f64, at: &Angle| flow.rate(at) - rate - slope * delta;
-    let delta2 = 0.5 * h * half_phi1 * rate;
-    let d2 = remainder(delta2, &start.rotated(delta2));
-    let linear = h * phi1 * rate;
-    let delta3 = linear + h * phi1 * d2;
-    let d3 = remainder(delta3, &start.rotated(delta3));
-    let delta = linear + h * ((16.0 * phi3 - 48.0 * phi4) * d2 + (12.0 * phi4 - 2.0 * phi3) * d3);
-    Step {
-        end: start.rotated(delta),
-        error: (h * phi4 * (12.0 * d3 - 48.0 * d2)).abs(),
+pub fn step<F: AngleFlow>(flow: &F, start: &Angle, rate: (f64, f64), h: f64) -> Step {
+    steps_together::<F, 1>(
+        std::slice::from_ref(flow),
+        std::slice::from_ref(start),
+        &[rate],
+        &[h],
+    )[0]
+}
+
+/// [`step`] of up to `N` flows at once, each from its start with its rate and slope over
+/// its length: the same values, computed stage by stage across the flows, so that one
+/// flow's divisions need not wait for another's.
+fn steps_together<F: AngleFlow, const N: usize>(
+    flows: &[F],
+    starts: &[Angle],
+    rates: &[(f64, f64)],
+    lengths: &[f64],
+) -> [Step; N] {
+    let count = flows.len().min(N);
+    let (mut phi1, mut phi3, mut phi4, mut half_phi1) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+    for j in 0..count {
+        let z = lengths[j] * rates[j].1;
+        [phi1[j], _, phi3[j], phi4[j]] = scalar_phi_functions_to_fourth(z);
+        half_phi1[j] = scalar_phi_functions(0.5 * z).1;
     }
+    let remainder = |j: usize, delta: f64| {
+        let (rate, slope) = rates[j];
+        flows[j].rate(&starts[j].rotated(delta)) - rate - slope * delta
+    };
+    let mut d2 = [0.0; N];
+    for j in 0..count {
+        d2[j] = remainder(j, 0.5 * lengths[j] * half_phi1[j] * rates[j].0);
+    }
+    let (mut linear, mut d3) = ([0.0; N], [0.0; N]);
+    for j in 0..count {
+        let h = lengths[j];
+        linear[j] = h * phi1[j] * rates[j].0;
+        d3[j] = remainder(j, linear[j] + h * phi1[j] * d2[j]);
+    }
+    let mut steps = [Step {
+        end: Angle { cos: 1.0, sin: 0.0 },
+        error: 0.0,
+    }; N];
+    for j in 0..count {
+        let (h, p3, p4) = (lengths[j], phi3[j], phi4[j]);
+        let delta = linear[j] + h * ((16.0 * p3 - 48.0 * p4) * d2[j] + (12.0 * p4 - 2.0 * p3) * d3[j]);
+        steps[j] = Step {
+            end: starts[j].rotated(delta),
+            error: (h * p4 * (12.0 * d3[j] - 48.0 * d2[j])).abs(),
+        };
+    }
+    steps
+}
+
+/// The event function of flow `j` at an angle.
+pub type EventOf<'a> = dyn Fn(usize, &Angle) -> f64 + 'a;
+
+/// The first step of [`integrate`] for up to `N` flows at once, each over the whole of
+/// its length from its start, side by side ([`steps_together`]): where [`integrate`] would
+/// end with that one step (accurate, and `event` of that flow not past `-threshold` at its
+/// end), its end, the same value; else `None`, and that flow is integrated by itself.
+pub fn first_steps_together<F: AngleFlow, const N: usize>(
+    flows: &[F],
+    starts: &[Angle],
+    lengths: &[f64],
+    tolerance: f64,
+    (event, threshold): (&EventOf<'_>, f64),
+) -> [Option<Angle>; N] {
+    let count = flows.len().min(N);
+    let mut rates = [(0.0, 0.0); N];
+    for j in 0..count {
+        rates[j] = flows[j].rate_and_slope(&starts[j]);
+    }
+    let steps = steps_together::<F, N>(&flows[..count], &starts[..count], &rates[..count], lengths);
+    let mut ends = [None; N];
+    for j in 0..count {
+        // At rest on an equilibrium nothing moves (and so no event), as in [`integrate`].
+        if rates[j].0 == 0.0 {
+            ends[j] = Some(starts[j]);
+            continue;
+        }
+        let taken = steps[j];
+        let accepted = taken.error <= tolerance && taken.end.cos.is_finite();
+        if accepted && event(j, &taken.end) >= -threshold {
+            ends[j] = Some(taken.end);
+        }
+    }
+    ends
 }
 
 /// Where an integration ended.

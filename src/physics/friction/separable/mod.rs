@@ -19,6 +19,13 @@
 //! The modes are decided from the states at the start of each step, as on the general
 //! path ([`super::sliding`]), which takes any step this one gives up (more mode changes
 //! than a step should have).
+//!
+//! A step is split in two. The usual case first, every branch side by side
+//! ([`SeparableStep::step_together`]): a branch sticks throughout, or slides to the end of
+//! the step, from its start or from its first contact, with one angle step; those angle
+//! steps are taken stage by stage across the branches, so that their divisions overlap.
+//! Then each branch that needs more (a shorter angle step, a slide that ends) by itself
+//! ([`SeparableStep::branch_step`]), which gives the same values for the usual case.
 
 // Members and branches index several arrays together.
 #![allow(clippy::needless_range_loop)]
@@ -30,7 +37,7 @@ use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, S
 use crate::physics::brush::Branch;
 use crate::physics::state_space::{DrivingVector, StateSpace, StateVector};
 use ellipse::EllipseBranch;
-use exponential::{Outcome, integrate};
+use exponential::{Outcome, first_steps_together, integrate};
 use sticking::{Contact, StickingMotion};
 /// Absolute error of the angle per integration step, rad (the relative error of the
 /// force on the ellipse).
@@ -114,15 +121,32 @@ impl SeparableStep {
         let mut end_sliders = *sliders;
         // Without a limit in either direction every branch deflection stays zero.
         let mut deflections = [[0.0; 2]; MAX_BRANCHES];
-        for i in (0..self.branches.len()).filter(|_| self.active.contains(&true)) {
+        let branches = if self.active.contains(&true) {
+            self.branches.len()
+        } else {
+            0
+        };
+        let mut starts = [([0.0; 2], false); MAX_BRANCHES];
+        for i in 0..branches {
             let mut b = [0.0; 2];
             for (m, direction) in MEMBERS.into_iter().enumerate() {
                 if let (Some(k), true) = (self.states[m], self.active[m]) {
                     b[m] = x[k] + sliders.offsets[direction as usize][i];
                 }
             }
-            let (end, sliding) = self.branch_step(&self.ellipses[i], b, h)?;
-            deflections[i] = end;
+            starts[i] = start_mode(&self.ellipses[i], b);
+        }
+        let done = self.step_together(&starts[..branches], h, &mut deflections);
+        for i in 0..branches {
+            let sliding = match done[i] {
+                Some(sliding) => sliding,
+                None => {
+                    let (b, sliding) = starts[i];
+                    let (end, sliding) = self.branch_step(&self.ellipses[i], b, sliding, h)?;
+                    deflections[i] = end;
+                    sliding
+                }
+            };
             end_sliders.sliding[Group::Planar as usize][i] = sliding;
         }
         for (m, direction) in MEMBERS.into_iter().enumerate() {
@@ -141,14 +165,87 @@ impl SeparableStep {
         Some((end_states, end_sliders))
     }
 
-    /// One branch over the step from deflections `b`: its end and whether it slides there.
-    fn branch_step(&self, branch: &EllipseBranch, mut b: [f64; 2], h: f64) -> Option<([f64; 2], bool)> {
-        // The mode at the start: a force outside the ellipse (the load fell) is put on it.
-        let utilisation = branch.utilisation(b);
-        if utilisation > 1.0 {
-            b = scaled(b, utilisation);
+    /// The usual step of every branch, side by side: a branch that sticks throughout, or
+    /// slides on its ellipse from the start or from where it first reaches it, with one
+    /// angle step to the end. `starts` holds each branch's deflections and mode at the
+    /// start ([`start_mode`]). Writes those branches' ends to `deflections` and returns
+    /// which are done, with their modes at the end; the others (an angle step too long,
+    /// an event, one member) take [`SeparableStep::branch_step`], which computes the same
+    /// values where it comes to them.
+    fn step_together(
+        &self,
+        starts: &[([f64; 2], bool)],
+        h: f64,
+        deflections: &mut [[f64; 2]; MAX_BRANCHES],
+    ) -> [Option<bool>; MAX_BRANCHES] {
+        let mut done = [None; MAX_BRANCHES];
+        if self.active != [true, true] || h <= 0.0 {
+            return done;
         }
-        let mut sliding = utilisation >= 1.0 - EVENT_TOLERANCE && branch.outward_cosine(b) > 0.0;
+        // Sliding pieces to the end of the step: branch, deflections and length.
+        let mut slides = [(0, [0.0; 2], 0.0); MAX_BRANCHES];
+        let mut count = 0;
+        for (i, &(b, sliding)) in starts.iter().enumerate() {
+            let branch = &self.ellipses[i];
+            let (b, length) = if sliding {
+                (b, h)
+            } else {
+                let motion = StickingMotion::new(branch, b);
+                match motion.first_contact(h) {
+                    Contact::None => {
+                        deflections[i] = motion.at(h).deflection;
+                        done[i] = Some(false);
+                        continue;
+                    }
+                    Contact::Undecided => continue,
+                    Contact::At(at) => {
+                        let b = scaled(at.deflection, branch.utilisation(at.deflection));
+                        if !(branch.outward_cosine(b) > 0.0 && h - at.t > 0.0) {
+                            continue;
+                        }
+                        (b, h - at.t)
+                    }
+                }
+            };
+            slides[count] = (i, b, length);
+            count += 1;
+        }
+        let slides = &slides[..count];
+        let ellipse = |k: usize| &self.ellipses[slides[k].0];
+        let flows: [_; MAX_BRANCHES] =
+            std::array::from_fn(|k| self.ellipses[slides.get(k).map_or(0, |s| s.0)].flow());
+        let angles: [_; MAX_BRANCHES] = std::array::from_fn(|k| match slides.get(k) {
+            Some(&(i, b, _)) => self.ellipses[i].angle_of(b),
+            None => exponential::Angle { cos: 1.0, sin: 0.0 },
+        });
+        let lengths: [_; MAX_BRANCHES] = std::array::from_fn(|k| slides.get(k).map_or(0.0, |s| s.2));
+        let outward =
+            |k: usize, at: &exponential::Angle| ellipse(k).outward_cosine(ellipse(k).on_ellipse(at));
+        let ends = first_steps_together::<_, MAX_BRANCHES>(
+            &flows[..count],
+            &angles[..count],
+            &lengths[..count],
+            ANGLE_TOLERANCE,
+            (&outward, EVENT_TOLERANCE),
+        );
+        for (k, &(i, _, _)) in slides.iter().enumerate() {
+            if let Some(end) = ends[k] {
+                deflections[i] = self.ellipses[i].on_ellipse(&end);
+                done[i] = Some(true);
+            }
+        }
+        done
+    }
+
+    /// One branch over the step from deflections `b` in its mode at the start
+    /// ([`start_mode`]): its end and whether it slides there.
+    fn branch_step(
+        &self,
+        branch: &EllipseBranch,
+        mut b: [f64; 2],
+        mut sliding: bool,
+        h: f64,
+    ) -> Option<([f64; 2], bool)> {
         let mut t = 0.0;
         for _ in 0..MAX_CHANGES {
             let left = h - t;
@@ -191,6 +288,19 @@ impl SeparableStep {
         }
         None
     }
+}
+
+/// A branch's deflections and mode at the start of a step: a force outside the ellipse
+/// (the load fell) is put on it; it slides if on the ellipse with its motion outward.
+fn start_mode(branch: &EllipseBranch, mut b: [f64; 2]) -> ([f64; 2], bool) {
+    let utilisation = branch.utilisation(b);
+    if utilisation > 1.0 {
+        b = scaled(b, utilisation);
+    }
+    (
+        b,
+        utilisation >= 1.0 - EVENT_TOLERANCE && branch.outward_cosine(b) > 0.0,
+    )
 }
 
 /// Deflections with `utilisation` scaled onto the ellipse.
