@@ -177,37 +177,67 @@ fn steps_together<F: AngleFlow, const N: usize>(
 /// The event function of flow `j` at an angle.
 pub type EventOf<'a> = dyn Fn(usize, &Angle) -> f64 + 'a;
 
+/// How the first step of an integration went ([`first_steps_together`]).
+#[derive(Clone, Copy, Debug)]
+pub enum FirstStep {
+    /// It ended the integration, here.
+    End(Angle),
+    /// It was too long: [`integrate`] goes on as from a first step this long.
+    Shorter(f64),
+    /// Its end is past the event: the integration is taken again.
+    Again,
+}
+
 /// The first step of [`integrate`] for up to `N` flows at once, each over the whole of
 /// its length from its start, side by side ([`steps_together`]): where [`integrate`] would
 /// end with that one step (accurate, and `event` of that flow not past `-threshold` at its
-/// end), its end, the same value; else `None`, and that flow is integrated by itself.
+/// end), its end, the same value; else how [`integrate`] goes on.
 pub fn first_steps_together<F: AngleFlow, const N: usize>(
     flows: &[F],
     starts: &[Angle],
     lengths: &[f64],
     tolerance: f64,
     (event, threshold): (&EventOf<'_>, f64),
-) -> [Option<Angle>; N] {
+) -> [FirstStep; N] {
     let count = flows.len().min(N);
     let mut rates = [(0.0, 0.0); N];
     for j in 0..count {
         rates[j] = flows[j].rate_and_slope(&starts[j]);
     }
     let steps = steps_together::<F, N>(&flows[..count], &starts[..count], &rates[..count], lengths);
-    let mut ends = [None; N];
+    let mut ends = [FirstStep::Again; N];
     for j in 0..count {
         // At rest on an equilibrium nothing moves (and so no event), as in [`integrate`].
         if rates[j].0 == 0.0 {
-            ends[j] = Some(starts[j]);
+            ends[j] = FirstStep::End(starts[j]);
             continue;
         }
         let taken = steps[j];
         let accepted = taken.error <= tolerance && taken.end.cos.is_finite();
-        if accepted && event(j, &taken.end) >= -threshold {
-            ends[j] = Some(taken.end);
-        }
+        ends[j] = if !accepted {
+            let next = shortened(lengths[j], taken.error, tolerance);
+            // Too short to go on: the integration taken again gives up as it would.
+            if next <= 1e-15 * lengths[j] {
+                FirstStep::Again
+            } else {
+                FirstStep::Shorter(next)
+            }
+        } else if event(j, &taken.end) >= -threshold {
+            FirstStep::End(taken.end)
+        } else {
+            FirstStep::Again
+        };
     }
     ends
+}
+
+/// The next length to try after a step of `h` with `error` above `tolerance`.
+fn shortened(h: f64, error: f64, tolerance: f64) -> f64 {
+    h * if error.is_finite() {
+        (0.9 * (tolerance / error).sqrt().sqrt()).clamp(0.1, 0.5)
+    } else {
+        0.1
+    }
 }
 
 /// Where an integration ended.
@@ -229,12 +259,24 @@ pub fn integrate<F: AngleFlow>(
     start: Angle,
     length: f64,
     tolerance: f64,
+    event: (&dyn Fn(&Angle) -> f64, f64),
+    max_steps: usize,
+) -> Option<Outcome> {
+    integrate_from_first(flow, start, (length, length), tolerance, event, max_steps)
+}
+
+/// [`integrate`] whose first step tries `first_length`.
+pub fn integrate_from_first<F: AngleFlow>(
+    flow: &F,
+    start: Angle,
+    (length, first_length): (f64, f64),
+    tolerance: f64,
     (event, threshold): (&dyn Fn(&Angle) -> f64, f64),
     max_steps: usize,
 ) -> Option<Outcome> {
     let mut at = start;
     let mut t = 0.0;
-    let mut h = length;
+    let mut h = first_length;
     for _ in 0..max_steps {
         if t >= length {
             return Some(Outcome::End(at));
@@ -248,11 +290,7 @@ pub fn integrate<F: AngleFlow>(
         let taken = step(flow, &at, start_rate, h);
         let accepted = taken.error <= tolerance && taken.end.cos.is_finite();
         if !accepted {
-            h *= if taken.error.is_finite() {
-                (0.9 * (tolerance / taken.error).sqrt().sqrt()).clamp(0.1, 0.5)
-            } else {
-                0.1
-            };
+            h = shortened(h, taken.error, tolerance);
             if h <= 1e-15 * length {
                 return None;
             }

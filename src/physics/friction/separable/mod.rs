@@ -37,7 +37,7 @@ use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, S
 use crate::physics::brush::Branch;
 use crate::physics::state_space::{DrivingVector, StateSpace, StateVector};
 use ellipse::EllipseBranch;
-use exponential::{Outcome, first_steps_together, integrate};
+use exponential::{FirstStep, Outcome, first_steps_together, integrate_from_first};
 use sticking::{Contact, StickingMotion};
 /// Absolute error of the angle per integration step, rad (the relative error of the
 /// force on the ellipse).
@@ -126,7 +126,7 @@ impl SeparableStep {
         } else {
             0
         };
-        let mut starts = [([0.0; 2], false); MAX_BRANCHES];
+        let mut starts = [BranchAt::default(); MAX_BRANCHES];
         for i in 0..branches {
             let mut b = [0.0; 2];
             for (m, direction) in MEMBERS.into_iter().enumerate() {
@@ -136,13 +136,12 @@ impl SeparableStep {
             }
             starts[i] = start_mode(&self.ellipses[i], b);
         }
-        let done = self.step_together(&starts[..branches], h, &mut deflections);
+        let done = self.step_together(&mut starts[..branches], h, &mut deflections);
         for i in 0..branches {
             let sliding = match done[i] {
                 Some(sliding) => sliding,
                 None => {
-                    let (b, sliding) = starts[i];
-                    let (end, sliding) = self.branch_step(&self.ellipses[i], b, sliding, h)?;
+                    let (end, sliding) = self.branch_step(&self.ellipses[i], starts[i], h)?;
                     deflections[i] = end;
                     sliding
                 }
@@ -169,12 +168,12 @@ impl SeparableStep {
     /// slides on its ellipse from the start or from where it first reaches it, with one
     /// angle step to the end. `starts` holds each branch's deflections and mode at the
     /// start ([`start_mode`]). Writes those branches' ends to `deflections` and returns
-    /// which are done, with their modes at the end; the others (an angle step too long,
-    /// an event, one member) take [`SeparableStep::branch_step`], which computes the same
-    /// values where it comes to them.
+    /// which are done, with their modes at the end; for the others (an angle step too
+    /// long, an event, one member) `starts` then says where [`SeparableStep::branch_step`]
+    /// goes on from, which computes the values this would have.
     fn step_together(
         &self,
-        starts: &[([f64; 2], bool)],
+        starts: &mut [BranchAt],
         h: f64,
         deflections: &mut [[f64; 2]; MAX_BRANCHES],
     ) -> [Option<bool>; MAX_BRANCHES] {
@@ -182,72 +181,80 @@ impl SeparableStep {
         if self.active != [true, true] || h <= 0.0 {
             return done;
         }
-        // Sliding pieces to the end of the step: branch, deflections and length.
-        let mut slides = [(0, [0.0; 2], 0.0); MAX_BRANCHES];
+        // Branches that slide to the end of the step, from where `starts` says.
+        let mut slides = [0; MAX_BRANCHES];
         let mut count = 0;
-        for (i, &(b, sliding)) in starts.iter().enumerate() {
+        for (i, from) in starts.iter_mut().enumerate() {
             let branch = &self.ellipses[i];
-            let (b, length) = if sliding {
-                (b, h)
-            } else {
-                let motion = StickingMotion::new(branch, b);
-                match motion.first_contact(h) {
+            if !from.sliding {
+                let motion = StickingMotion::new(branch, from.b);
+                let at = match motion.first_contact(h) {
                     Contact::None => {
                         deflections[i] = motion.at(h).deflection;
                         done[i] = Some(false);
                         continue;
                     }
                     Contact::Undecided => continue,
-                    Contact::At(at) => {
-                        let b = scaled(at.deflection, branch.utilisation(at.deflection));
-                        if !(branch.outward_cosine(b) > 0.0 && h - at.t > 0.0) {
-                            continue;
-                        }
-                        (b, h - at.t)
-                    }
+                    Contact::At(at) => at,
+                };
+                let b = scaled(at.deflection, branch.utilisation(at.deflection));
+                *from = BranchAt {
+                    b,
+                    sliding: branch.outward_cosine(b) > 0.0,
+                    t: at.t,
+                    changes: 1,
+                    first_angle_step: None,
+                };
+                if !(from.sliding && h - from.t > 0.0) {
+                    continue;
                 }
-            };
-            slides[count] = (i, b, length);
+            }
+            slides[count] = i;
             count += 1;
         }
         let slides = &slides[..count];
-        let ellipse = |k: usize| &self.ellipses[slides[k].0];
+        let ellipse = |k: usize| &self.ellipses[slides[k]];
         let flows: [_; MAX_BRANCHES] =
-            std::array::from_fn(|k| self.ellipses[slides.get(k).map_or(0, |s| s.0)].flow());
+            std::array::from_fn(|k| self.ellipses[slides.get(k).map_or(0, |&i| i)].flow());
         let angles: [_; MAX_BRANCHES] = std::array::from_fn(|k| match slides.get(k) {
-            Some(&(i, b, _)) => self.ellipses[i].angle_of(b),
+            Some(&i) => self.ellipses[i].angle_of(starts[i].b),
             None => exponential::Angle { cos: 1.0, sin: 0.0 },
         });
-        let lengths: [_; MAX_BRANCHES] = std::array::from_fn(|k| slides.get(k).map_or(0.0, |s| s.2));
+        let lengths: [_; MAX_BRANCHES] =
+            std::array::from_fn(|k| slides.get(k).map_or(0.0, |&i| h - starts[i].t));
         let outward =
             |k: usize, at: &exponential::Angle| ellipse(k).outward_cosine(ellipse(k).on_ellipse(at));
-        let ends = first_steps_together::<_, MAX_BRANCHES>(
+        let firsts = first_steps_together::<_, MAX_BRANCHES>(
             &flows[..count],
             &angles[..count],
             &lengths[..count],
             ANGLE_TOLERANCE,
             (&outward, EVENT_TOLERANCE),
         );
-        for (k, &(i, _, _)) in slides.iter().enumerate() {
-            if let Some(end) = ends[k] {
-                deflections[i] = self.ellipses[i].on_ellipse(&end);
-                done[i] = Some(true);
+        for (k, &i) in slides.iter().enumerate() {
+            match firsts[k] {
+                FirstStep::End(end) => {
+                    deflections[i] = self.ellipses[i].on_ellipse(&end);
+                    done[i] = Some(true);
+                }
+                FirstStep::Shorter(length) => starts[i].first_angle_step = Some(length),
+                FirstStep::Again => {}
             }
         }
         done
     }
 
-    /// One branch over the step from deflections `b` in its mode at the start
-    /// ([`start_mode`]): its end and whether it slides there.
-    fn branch_step(
-        &self,
-        branch: &EllipseBranch,
-        mut b: [f64; 2],
-        mut sliding: bool,
-        h: f64,
-    ) -> Option<([f64; 2], bool)> {
-        let mut t = 0.0;
-        for _ in 0..MAX_CHANGES {
+    /// One branch over the step from where it is ([`BranchAt`]; from the start,
+    /// [`start_mode`]): its end and whether it slides there.
+    fn branch_step(&self, branch: &EllipseBranch, from: BranchAt, h: f64) -> Option<([f64; 2], bool)> {
+        let BranchAt {
+            mut b,
+            mut sliding,
+            mut t,
+            changes,
+            mut first_angle_step,
+        } = from;
+        for _ in changes..MAX_CHANGES {
             let left = h - t;
             if left <= 0.0 {
                 return Some((b, sliding));
@@ -264,13 +271,18 @@ impl SeparableStep {
                 sliding = branch.outward_cosine(b) > 0.0;
             } else if self.active == [true, true] {
                 let outward = |at: &exponential::Angle| branch.outward_cosine(branch.on_ellipse(at));
-                let outcome = integrate(
+                // A first step already found too long counts as one taken.
+                let (first, taken) = match first_angle_step.take() {
+                    Some(first) => (first, 1),
+                    None => (left, 0),
+                };
+                let outcome = integrate_from_first(
                     &branch.flow(),
                     branch.angle_of(b),
-                    left,
+                    (left, first),
                     ANGLE_TOLERANCE,
                     (&outward, EVENT_TOLERANCE),
-                    MAX_ANGLE_STEPS,
+                    MAX_ANGLE_STEPS - taken,
                 )?;
                 match outcome {
                     Outcome::End(at) => return Some((branch.on_ellipse(&at), true)),
@@ -292,15 +304,28 @@ impl SeparableStep {
 
 /// A branch's deflections and mode at the start of a step: a force outside the ellipse
 /// (the load fell) is put on it; it slides if on the ellipse with its motion outward.
-fn start_mode(branch: &EllipseBranch, mut b: [f64; 2]) -> ([f64; 2], bool) {
+fn start_mode(branch: &EllipseBranch, mut b: [f64; 2]) -> BranchAt {
     let utilisation = branch.utilisation(b);
     if utilisation > 1.0 {
         b = scaled(b, utilisation);
     }
-    (
+    BranchAt {
         b,
-        utilisation >= 1.0 - EVENT_TOLERANCE && branch.outward_cosine(b) > 0.0,
-    )
+        sliding: utilisation >= 1.0 - EVENT_TOLERANCE && branch.outward_cosine(b) > 0.0,
+        ..BranchAt::default()
+    }
+}
+
+/// Where a branch's step goes on from: its deflections and mode `t` seconds into the
+/// step, after `changes` mode changes; sliding, the length its first angle step tries
+/// (the rest of the step unless a longer one was found too long).
+#[derive(Clone, Copy, Debug, Default)]
+struct BranchAt {
+    b: [f64; 2],
+    sliding: bool,
+    t: f64,
+    changes: usize,
+    first_angle_step: Option<f64>,
 }
 
 /// Deflections with `utilisation` scaled onto the ellipse.
