@@ -170,7 +170,8 @@ fn estrin8_lower(c: &[f64], x: LowerTriangular, x2: LowerTriangular, x4: LowerTr
 /// [`SCALED_NORM`]), summed by Estrin's scheme, the three side by side; the closed forms
 /// `(e^z - 1)/z` and `(e^z - 1 - z)/z^2` (with `expm1`, which loses at most two bits
 /// there) where it is not.
-#[inline]
+/// Always inlined: most callers use one or two of the three, and the others' series drop.
+#[inline(always)]
 pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
     const EXP: &[f64] = &INVERSE_FACTORIAL;
     let (phi1_series, phi2_series) = (&INVERSE_FACTORIAL[1..], &INVERSE_FACTORIAL[2..]);

@@ -115,7 +115,8 @@ impl SeparableStep {
     /// The states and branches at the end of a step of `h` seconds from `x` and `sliders`;
     /// `None` if a branch changes mode more often than a step should, grazes its limit
     /// too finely to decide, or its angle's steps shrink to nothing (the general path then
-    /// takes the step).
+    /// takes the step). Out of line: its frame stays off the sticking step's path.
+    #[inline(never)]
     pub fn step(&self, x: &StateVector, sliders: &SliderState, h: f64) -> Option<(StateVector, SliderState)> {
         let mut end_states = *x;
         let mut end_sliders = *sliders;
