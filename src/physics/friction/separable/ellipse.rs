@@ -106,7 +106,7 @@ impl EllipseBranch {
 
 /// `dtheta/dt = N / D` with `N = drive_cos cos + drive_sin sin + relaxation sin cos` and
 /// `D = weight_sin sin^2 + weight_cos cos^2` (see the module's doc).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct EllipseFlow {
     drive_cos: f64,
     drive_sin: f64,

@@ -23,6 +23,9 @@ pub struct Angle {
 }
 
 impl Angle {
+    /// The angle zero.
+    pub const ZERO: Angle = Angle { cos: 1.0, sin: 0.0 };
+
     /// The angle of the direction `(x, y)`, which must not be zero (and is of a size near
     /// one: a point of the ellipse, scaled to the unit circle).
     pub fn of(x: f64, y: f64) -> Self {
@@ -160,7 +163,7 @@ fn steps_together<F: AngleFlow, const N: usize>(
         d3[j] = remainder(j, linear[j] + h * phi1[j] * d2[j]);
     }
     let mut steps = [Step {
-        end: Angle { cos: 1.0, sin: 0.0 },
+        end: Angle::ZERO,
         error: 0.0,
     }; N];
     for j in 0..count {
@@ -251,22 +254,11 @@ pub enum Outcome {
 }
 
 /// Integrates from `start` over `length` seconds to an absolute error of `tolerance`
-/// radians per step, stopping where `event` (positive at the start) falls below
-/// `-threshold` (located where it crosses `-threshold / 2`). `None` if the steps shrink
-/// to nothing or exceed `max_steps` (the caller takes another way).
+/// radians per step, its first step trying `first_length` (the whole `length` unless a
+/// step that long was already found too long), stopping where `event` (positive at the
+/// start) falls below `-threshold` (located where it crosses `-threshold / 2`). `None` if
+/// the steps shrink to nothing or exceed `max_steps` (the caller takes another way).
 pub fn integrate<F: AngleFlow>(
-    flow: &F,
-    start: Angle,
-    length: f64,
-    tolerance: f64,
-    event: (&dyn Fn(&Angle) -> f64, f64),
-    max_steps: usize,
-) -> Option<Outcome> {
-    integrate_from_first(flow, start, (length, length), tolerance, event, max_steps)
-}
-
-/// [`integrate`] whose first step tries `first_length`.
-pub fn integrate_from_first<F: AngleFlow>(
     flow: &F,
     start: Angle,
     (length, first_length): (f64, f64),
@@ -426,7 +418,7 @@ mod tests {
                 let outcome = integrate(
                     &flow,
                     Angle::of(start.cos(), start.sin()),
-                    length,
+                    (length, length),
                     1e-13,
                     (&never, 1e-12),
                     10_000,
@@ -455,7 +447,7 @@ mod tests {
         let outcome = integrate(
             &flow,
             Angle::of(start.cos(), start.sin()),
-            5.0,
+            (5.0, 5.0),
             1e-13,
             (&event, 1e-12),
             10_000,

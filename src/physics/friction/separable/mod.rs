@@ -36,8 +36,8 @@ mod sticking;
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::brush::Branch;
 use crate::physics::state_space::{DrivingVector, StateSpace, StateVector};
-use ellipse::EllipseBranch;
-use exponential::{FirstStep, Outcome, first_steps_together, integrate_from_first};
+use ellipse::{EllipseBranch, EllipseFlow};
+use exponential::{Angle, FirstStep, Outcome, first_steps_together, integrate};
 use sticking::{Contact, StickingMotion};
 /// Absolute error of the angle per integration step, rad (the relative error of the
 /// force on the ellipse).
@@ -115,8 +115,7 @@ impl SeparableStep {
     /// The states and branches at the end of a step of `h` seconds from `x` and `sliders`;
     /// `None` if a branch changes mode more often than a step should, grazes its limit
     /// too finely to decide, or its angle's steps shrink to nothing (the general path then
-    /// takes the step). Out of line: its frame stays off the sticking step's path.
-    #[inline(never)]
+    /// takes the step).
     pub fn step(&self, x: &StateVector, sliders: &SliderState, h: f64) -> Option<(StateVector, SliderState)> {
         let mut end_states = *x;
         let mut end_sliders = *sliders;
@@ -182,49 +181,37 @@ impl SeparableStep {
         if self.active != [true, true] || h <= 0.0 {
             return done;
         }
-        // Branches that slide to the end of the step, from where `starts` says.
+        // The branches that slide to the end of the step: their angles' flows, where they
+        // start to slide, and the time left.
         let mut slides = [0; MAX_BRANCHES];
+        let mut flows = [EllipseFlow::default(); MAX_BRANCHES];
+        let (mut angles, mut lengths) = ([Angle::ZERO; MAX_BRANCHES], [0.0; MAX_BRANCHES]);
         let mut count = 0;
         for (i, from) in starts.iter_mut().enumerate() {
             let branch = &self.ellipses[i];
             if !from.sliding {
-                let motion = StickingMotion::new(branch, from.b);
-                let at = match motion.first_contact(h) {
-                    Contact::None => {
-                        deflections[i] = motion.at(h).deflection;
+                match sticking_piece(branch, from, h) {
+                    Sticking::Throughout(end) => {
+                        deflections[i] = end;
                         done[i] = Some(false);
                         continue;
                     }
-                    Contact::Undecided => continue,
-                    Contact::At(at) => at,
-                };
-                let b = scaled(at.deflection, branch.utilisation(at.deflection));
-                *from = BranchAt {
-                    b,
-                    sliding: branch.outward_cosine(b) > 0.0,
-                    t: at.t,
-                    changes: 1,
-                    first_angle_step: None,
-                };
+                    Sticking::Undecided => continue,
+                    Sticking::Until(contact) => *from = contact,
+                }
                 if !(from.sliding && h - from.t > 0.0) {
                     continue;
                 }
             }
             slides[count] = i;
+            (flows[count], angles[count], lengths[count]) =
+                (branch.flow(), branch.angle_of(from.b), h - from.t);
             count += 1;
         }
-        let slides = &slides[..count];
-        let ellipse = |k: usize| &self.ellipses[slides[k]];
-        let flows: [_; MAX_BRANCHES] =
-            std::array::from_fn(|k| self.ellipses[slides.get(k).map_or(0, |&i| i)].flow());
-        let angles: [_; MAX_BRANCHES] = std::array::from_fn(|k| match slides.get(k) {
-            Some(&i) => self.ellipses[i].angle_of(starts[i].b),
-            None => exponential::Angle { cos: 1.0, sin: 0.0 },
-        });
-        let lengths: [_; MAX_BRANCHES] =
-            std::array::from_fn(|k| slides.get(k).map_or(0.0, |&i| h - starts[i].t));
-        let outward =
-            |k: usize, at: &exponential::Angle| ellipse(k).outward_cosine(ellipse(k).on_ellipse(at));
+        let outward = |k: usize, at: &Angle| {
+            let branch = &self.ellipses[slides[k]];
+            branch.outward_cosine(branch.on_ellipse(at))
+        };
         let firsts = first_steps_together::<_, MAX_BRANCHES>(
             &flows[..count],
             &angles[..count],
@@ -232,7 +219,7 @@ impl SeparableStep {
             ANGLE_TOLERANCE,
             (&outward, EVENT_TOLERANCE),
         );
-        for (k, &i) in slides.iter().enumerate() {
+        for (k, &i) in slides[..count].iter().enumerate() {
             match firsts[k] {
                 FirstStep::End(end) => {
                     deflections[i] = self.ellipses[i].on_ellipse(&end);
@@ -246,60 +233,82 @@ impl SeparableStep {
     }
 
     /// One branch over the step from where it is ([`BranchAt`]; from the start,
-    /// [`start_mode`]): its end and whether it slides there.
+    /// [`start_mode`]), piece by piece: its end and whether it slides there.
     fn branch_step(&self, branch: &EllipseBranch, from: BranchAt, h: f64) -> Option<([f64; 2], bool)> {
-        let BranchAt {
-            mut b,
-            mut sliding,
-            mut t,
-            changes,
-            mut first_angle_step,
-        } = from;
-        for _ in changes..MAX_CHANGES {
-            let left = h - t;
+        let mut at = from;
+        while at.changes < MAX_CHANGES {
+            let left = h - at.t;
             if left <= 0.0 {
-                return Some((b, sliding));
+                return Some((at.b, at.sliding));
             }
-            if !sliding {
-                let motion = StickingMotion::new(branch, b);
-                let at = match motion.first_contact(left) {
-                    Contact::None => return Some((motion.at(left).deflection, false)),
-                    Contact::Undecided => return None,
-                    Contact::At(at) => at,
-                };
-                b = scaled(at.deflection, branch.utilisation(at.deflection));
-                t += at.t;
-                sliding = branch.outward_cosine(b) > 0.0;
+            if !at.sliding {
+                match sticking_piece(branch, &at, h) {
+                    Sticking::Throughout(end) => return Some((end, false)),
+                    Sticking::Undecided => return None,
+                    Sticking::Until(contact) => at = contact,
+                }
             } else if self.active == [true, true] {
-                let outward = |at: &exponential::Angle| branch.outward_cosine(branch.on_ellipse(at));
+                let outward = |angle: &Angle| branch.outward_cosine(branch.on_ellipse(angle));
                 // A first step already found too long counts as one taken.
-                let (first, taken) = match first_angle_step.take() {
-                    Some(first) => (first, 1),
-                    None => (left, 0),
-                };
-                let outcome = integrate_from_first(
+                let taken = usize::from(at.first_angle_step.is_some());
+                let outcome = integrate(
                     &branch.flow(),
-                    branch.angle_of(b),
-                    (left, first),
+                    branch.angle_of(at.b),
+                    (left, at.first_angle_step.unwrap_or(left)),
                     ANGLE_TOLERANCE,
                     (&outward, EVENT_TOLERANCE),
                     MAX_ANGLE_STEPS - taken,
                 )?;
                 match outcome {
-                    Outcome::End(at) => return Some((branch.on_ellipse(&at), true)),
-                    Outcome::Event(elapsed, at) => {
-                        b = branch.on_ellipse(&at);
-                        t += elapsed;
-                        sliding = false;
+                    Outcome::End(end) => return Some((branch.on_ellipse(&end), true)),
+                    Outcome::Event(elapsed, angle) => {
+                        at = BranchAt {
+                            b: branch.on_ellipse(&angle),
+                            sliding: false,
+                            t: at.t + elapsed,
+                            changes: at.changes + 1,
+                            first_angle_step: None,
+                        };
                     }
                 }
             } else {
                 // One member on its limit: its outward motion does not change under held
                 // inputs, so it slides to the end of the step.
-                return Some((b, true));
+                return Some((at.b, true));
             }
         }
         None
+    }
+}
+
+/// How a sticking piece ends ([`sticking_piece`]).
+enum Sticking {
+    /// At the end of the step, still sticking: the deflections there.
+    Throughout([f64; 2]),
+    /// On the ellipse, put on it exactly: where the branch goes on from.
+    Until(BranchAt),
+    /// A graze too fine to decide.
+    Undecided,
+}
+
+/// A branch that sticks from `from` on, to its first contact with its ellipse or the end
+/// of the step.
+fn sticking_piece(branch: &EllipseBranch, from: &BranchAt, h: f64) -> Sticking {
+    let left = h - from.t;
+    let motion = StickingMotion::new(branch, from.b);
+    match motion.first_contact(left) {
+        Contact::None => Sticking::Throughout(motion.at(left).deflection),
+        Contact::Undecided => Sticking::Undecided,
+        Contact::At(at) => {
+            let b = scaled(at.deflection, branch.utilisation(at.deflection));
+            Sticking::Until(BranchAt {
+                b,
+                sliding: branch.outward_cosine(b) > 0.0,
+                t: from.t + at.t,
+                changes: from.changes + 1,
+                first_angle_step: None,
+            })
+        }
     }
 }
 
