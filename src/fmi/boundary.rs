@@ -608,7 +608,7 @@ pub enum ContinuousValues {
     Nominals,
 }
 
-#[inline]
+#[inline(always)]
 pub fn get_continuous_values(
     c: *mut c_void,
     function: &str,
@@ -616,15 +616,29 @@ pub fn get_continuous_values(
     values: *mut f64,
     n: usize,
 ) -> StatusCode {
+    // Dispatched here, where `which` is a constant of the export: each getter is its own
+    // call, with nothing to choose at run time.
+    match which {
+        ContinuousValues::States => get_values(c, function, values, n, Instance::get_continuous_states),
+        ContinuousValues::Derivatives => get_values(c, function, values, n, Instance::get_derivatives),
+        ContinuousValues::EventIndicators => {
+            get_values(c, function, values, n, Instance::get_event_indicators)
+        }
+        ContinuousValues::Nominals => get_values(c, function, values, n, Instance::get_nominals),
+    }
+}
+
+#[inline]
+fn get_values(
+    c: *mut c_void,
+    function: &str,
+    values: *mut f64,
+    n: usize,
+    get: impl FnOnce(&mut Instance, &mut [f64]) -> CallResult,
+) -> StatusCode {
     let arguments = move || unsafe { format!("values -> {}", listed(values, n)) };
     with_instance_logged(c, function, arguments, |instance| unsafe {
-        let values = array_mut(values, n, "values")?;
-        match which {
-            ContinuousValues::States => instance.get_continuous_states(values),
-            ContinuousValues::Derivatives => instance.get_derivatives(values),
-            ContinuousValues::EventIndicators => instance.get_event_indicators(values),
-            ContinuousValues::Nominals => instance.get_nominals(values),
-        }
+        get(instance, array_mut(values, n, "values")?)
     })
 }
 

@@ -185,10 +185,11 @@ impl InverseLimits {
         let mut inverse = [0.0; Direction::COUNT];
         let mut valid = true;
         for ((inverse, &present), inverse_lever) in inverse.iter_mut().zip(present).zip(self.inverse_levers) {
-            if present {
-                *inverse = inverse_lever * inverse_scale;
-                valid &= inverse.is_finite() && *inverse > 0.0;
-            }
+            // Selects and `&`, not branches: a solver asks at every evaluation. (NaN fails
+            // both comparisons.)
+            let value = inverse_lever * inverse_scale;
+            *inverse = if present { value } else { 0.0 };
+            valid &= !present | ((value > 0.0) & (value < f64::INFINITY));
         }
         valid.then_some(inverse)
     }

@@ -93,6 +93,59 @@ const fn offset_entry(d: usize, i: usize) -> usize {
     MAX_STATES + d * MAX_BRANCHES + i
 }
 
+/// `PRESENT_STATES[n]`: the bit mask that keeps the first `n` state slots and zeroes the
+/// rest.
+const PRESENT_STATES: [[u64; MAX_STATES]; MAX_STATES + 1] = {
+    let mut masks = [[0; MAX_STATES]; MAX_STATES + 1];
+    let mut n = 0;
+    while n <= MAX_STATES {
+        let mut j = 0;
+        while j < n {
+            masks[n][j] = u64::MAX;
+            j += 1;
+        }
+        n += 1;
+    }
+    masks
+};
+
+/// Whether every value is finite: `0 v` is zero for a finite value and NaN for any other,
+/// and their sum by pairs (one chain of two-wide additions) is zero only if every one is.
+#[inline]
+fn all_finite(values: &ContinuousStates) -> bool {
+    let pairs = values.as_chunks::<2>().0;
+    let zeroed = |[a, b]: [f64; 2]| [0.0 * a, 0.0 * b];
+    let sum = pairs[1..].iter().fold(zeroed(pairs[0]), |[s, t], &pair| {
+        let [a, b] = zeroed(pair);
+        [s + a, t + b]
+    });
+    sum[0] + sum[1] == 0.0
+}
+
+/// The error for states of which one is not finite.
+#[cold]
+#[inline(never)]
+fn not_finite(z: &ContinuousStates) -> String {
+    let k = z.iter().position(|v| !v.is_finite()).unwrap_or_default();
+    format!("continuous state {} is {}: not finite", k + 1, z[k])
+}
+
+/// The branch offsets of `offsets` (laid out as the continuous states' tail), for the
+/// directions that have an element.
+#[cold]
+#[inline(never)]
+fn set_offsets(friction: &mut crate::physics::friction::Friction, offsets: &[f64]) {
+    let mut sliders = *friction.state();
+    let branches = friction.branches.len();
+    for (d, element) in friction.elements.iter().enumerate() {
+        if element.is_some() {
+            let first = d * MAX_BRANCHES;
+            sliders.offsets[d][..branches].copy_from_slice(&offsets[first..first + branches]);
+        }
+    }
+    friction.set_state(sliders);
+}
+
 /// The guard of a group whose event value (negative while it keeps its mode) is `event`.
 fn group_guard(event: f64) -> f64 {
     0.5 * EVENT_TOLERANCE - event
@@ -113,35 +166,25 @@ impl Tire {
     /// past the model's count, branches past the law's, directions without an element)
     /// are ignored. Every entry must be finite; on error nothing changes.
     pub fn set_continuous_states(&mut self, z: &ContinuousStates) -> Result<(), String> {
-        // One branch-free pass for the usual case; the reason only when one is not finite.
-        if !z.iter().fold(true, |all, v| all & v.is_finite()) {
-            let k = z.iter().position(|v| !v.is_finite()).expect("one is not finite");
-            return Err(format!("continuous state {} is {}: not finite", k + 1, z[k]));
+        if !all_finite(z) {
+            return Err(not_finite(z));
         }
-        let n = self.rolling.affine().states();
-        // Every slot at once, those past the model's states kept zero (a copy of `n` entries
-        // would be a call).
-        let states: &[f64; MAX_STATES] = z[..MAX_STATES].try_into().expect("the layout");
-        self.states = StateVector::from(std::array::from_fn(|j| if j < n { states[j] } else { 0.0 }));
+        let (states, offsets) = z.split_at(MAX_STATES);
+        // Every slot at once, those past the model's states masked to zero.
+        let present = &PRESENT_STATES[self.rolling.affine().states()];
+        self.states = StateVector::from(std::array::from_fn(|j| {
+            f64::from_bits(states[j].to_bits() & present[j])
+        }));
         if let Some(friction) = self.friction.as_mut() {
-            let current = friction.state();
-            let branches = friction.branches.len();
             // All offsets at once, bitwise and without a branch per entry: the usual call
             // moves none. (Entries the tire lacks, set to anything but zero, take the
-            // general path below, which leaves them out.)
-            let moved = z[offset_entry(0, 0)..]
+            // general path, which leaves them out.)
+            let moved = offsets
                 .iter()
-                .zip(current.offsets.as_flattened())
+                .zip(friction.state().offsets.as_flattened())
                 .fold(0, |moved, (new, old)| moved | (new.to_bits() ^ old.to_bits()));
             if moved != 0 {
-                let mut sliders = *current;
-                for (d, element) in friction.elements.iter().enumerate() {
-                    if element.is_some() {
-                        sliders.offsets[d][..branches]
-                            .copy_from_slice(&z[offset_entry(d, 0)..offset_entry(d, branches)]);
-                    }
-                }
-                friction.set_state(sliders);
+                set_offsets(friction, offsets);
             }
         }
         self.changed();
