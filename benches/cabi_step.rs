@@ -151,18 +151,13 @@ fn stiff_light_tire(fmu: &fmi_sys::fmi2::Fmi2Binding, steps: usize, passes: usiz
     }
 }
 
-/// The stiff light tire's slide with every input changing from step to step (see the top).
+/// The stiff light tire's slide with every input changing from step to step (see the top):
+/// the shared yardstick's inputs moved to its slide and scaled to its load.
 fn varying_stiff_slide(steps: usize, step: f64) -> Vec<[f64; 5]> {
-    (0..steps)
-        .map(|k| {
-            let t = k as f64 * step;
-            [
-                5.0 + 1e-3 * (k % 1000) as f64,
-                -0.5 + 0.1 * t.sin(),
-                0.05 * t.cos(),
-                -0.3 + 0.01 * t.sin(),
-                100.0 * (1.0 + 0.02 * (2.0 * t).sin()),
-            ]
+    support::yardstick_inputs(true, steps, step)
+        .into_iter()
+        .map(|[vx, vy, steer_rate, vsx, fz]| {
+            [vx - 5.0, vy - 0.5, steer_rate, vsx - 0.3, fz * (100.0 / 50_000.0)]
         })
         .collect()
 }

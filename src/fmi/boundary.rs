@@ -599,42 +599,16 @@ pub fn set_continuous_states(c: *mut c_void, function: &str, x: *const f64, nx: 
     })
 }
 
-/// The Model Exchange getters of a state-sized or indicator-sized array.
-#[derive(Clone, Copy)]
-pub enum ContinuousValues {
-    States,
-    Derivatives,
-    EventIndicators,
-    Nominals,
-}
-
-#[inline(always)]
+/// A Model Exchange getter of a state-sized or indicator-sized array (`get` is the
+/// instance's method for it: each export is its own call, with nothing to choose at run
+/// time).
+#[inline]
 pub fn get_continuous_values(
     c: *mut c_void,
     function: &str,
-    which: ContinuousValues,
-    values: *mut f64,
-    n: usize,
-) -> StatusCode {
-    // Dispatched here, where `which` is a constant of the export: each getter is its own
-    // call, with nothing to choose at run time.
-    match which {
-        ContinuousValues::States => get_values(c, function, values, n, Instance::get_continuous_states),
-        ContinuousValues::Derivatives => get_values(c, function, values, n, Instance::get_derivatives),
-        ContinuousValues::EventIndicators => {
-            get_values(c, function, values, n, Instance::get_event_indicators)
-        }
-        ContinuousValues::Nominals => get_values(c, function, values, n, Instance::get_nominals),
-    }
-}
-
-#[inline]
-fn get_values(
-    c: *mut c_void,
-    function: &str,
-    values: *mut f64,
-    n: usize,
     get: impl FnOnce(&mut Instance, &mut [f64]) -> CallResult,
+    values: *mut f64,
+    n: usize,
 ) -> StatusCode {
     let arguments = move || unsafe { format!("values -> {}", listed(values, n)) };
     with_instance_logged(c, function, arguments, |instance| unsafe {

@@ -10,7 +10,7 @@
 
 use std::ffi::c_char;
 
-use super::boundary::{self as b, ContinuousValues, Directional, Instantiation, out, with_instance};
+use super::boundary::{self as b, Directional, Instantiation, out, with_instance};
 use super::instance::{Instance, Interface, path_of_file_uri};
 use super::logger::Callback;
 use super::state_machine::Call;
@@ -406,7 +406,7 @@ pub extern "C" fn fmi2GetDerivatives(c: fmi2Component, derivatives: *mut fmi2Rea
     b::get_continuous_values(
         c,
         "fmi2GetDerivatives",
-        ContinuousValues::Derivatives,
+        Instance::get_derivatives,
         derivatives,
         nx,
     )
@@ -421,7 +421,7 @@ pub extern "C" fn fmi2GetEventIndicators(
     b::get_continuous_values(
         c,
         "fmi2GetEventIndicators",
-        ContinuousValues::EventIndicators,
+        Instance::get_event_indicators,
         eventIndicators,
         ni,
     )
@@ -429,7 +429,13 @@ pub extern "C" fn fmi2GetEventIndicators(
 
 #[unsafe(no_mangle)]
 pub extern "C" fn fmi2GetContinuousStates(c: fmi2Component, x: *mut fmi2Real, nx: usize) -> fmi2Status {
-    b::get_continuous_values(c, "fmi2GetContinuousStates", ContinuousValues::States, x, nx)
+    b::get_continuous_values(
+        c,
+        "fmi2GetContinuousStates",
+        Instance::get_continuous_states,
+        x,
+        nx,
+    )
 }
 
 #[unsafe(no_mangle)]
@@ -441,7 +447,7 @@ pub extern "C" fn fmi2GetNominalsOfContinuousStates(
     b::get_continuous_values(
         c,
         "fmi2GetNominalsOfContinuousStates",
-        ContinuousValues::Nominals,
+        Instance::get_nominals,
         x_nominal,
         nx,
     )

@@ -13,7 +13,7 @@
 use std::ffi::c_char;
 use std::path::PathBuf;
 
-use super::boundary::{self as b, ContinuousValues, Directional, Instantiation, out, with_instance};
+use super::boundary::{self as b, Directional, Instantiation, out, with_instance};
 use super::instance::{Instance, Interface};
 use super::logger::Callback;
 use super::state_machine::Call;
@@ -765,7 +765,7 @@ pub extern "C" fn fmi3GetContinuousStateDerivatives(
     b::get_continuous_values(
         instance,
         "fmi3GetContinuousStateDerivatives",
-        ContinuousValues::Derivatives,
+        Instance::get_derivatives,
         derivatives,
         nContinuousStates,
     )
@@ -780,7 +780,7 @@ pub extern "C" fn fmi3GetEventIndicators(
     b::get_continuous_values(
         instance,
         "fmi3GetEventIndicators",
-        ContinuousValues::EventIndicators,
+        Instance::get_event_indicators,
         eventIndicators,
         nEventIndicators,
     )
@@ -795,7 +795,7 @@ pub extern "C" fn fmi3GetContinuousStates(
     b::get_continuous_values(
         instance,
         "fmi3GetContinuousStates",
-        ContinuousValues::States,
+        Instance::get_continuous_states,
         continuousStates,
         nContinuousStates,
     )
@@ -810,7 +810,7 @@ pub extern "C" fn fmi3GetNominalsOfContinuousStates(
     b::get_continuous_values(
         instance,
         "fmi3GetNominalsOfContinuousStates",
-        ContinuousValues::Nominals,
+        Instance::get_nominals,
         nominals,
         nContinuousStates,
     )

@@ -105,8 +105,9 @@ fn not_model_exchange() -> Box<Rejection> {
     Rejection::error("this is a Model Exchange function; the instance was made for Co-Simulation")
 }
 
-/// `*to = *from`, in two parts: each stays a few moves, where one copy of the whole is a
-/// call to memcpy.
+/// `*to = *from`, in two parts that each stay a few moves; one copy of the whole is a call
+/// to memcpy, about 30 instructions more per evaluation (callgrind, `me_evaluation`'s
+/// loop) and 3-6 ns.
 #[inline(always)]
 fn copy_inline(to: &mut ContinuousStates, from: &ContinuousStates) {
     const HALF: usize = CONTINUOUS_STATES / 2;

@@ -93,22 +93,6 @@ const fn offset_entry(d: usize, i: usize) -> usize {
     MAX_STATES + d * MAX_BRANCHES + i
 }
 
-/// `PRESENT_STATES[n]`: the bit mask that keeps the first `n` state slots and zeroes the
-/// rest.
-const PRESENT_STATES: [[u64; MAX_STATES]; MAX_STATES + 1] = {
-    let mut masks = [[0; MAX_STATES]; MAX_STATES + 1];
-    let mut n = 0;
-    while n <= MAX_STATES {
-        let mut j = 0;
-        while j < n {
-            masks[n][j] = u64::MAX;
-            j += 1;
-        }
-        n += 1;
-    }
-    masks
-};
-
 /// Whether every value is finite: `0 v` is zero for a finite value and NaN for any other,
 /// and their sum by pairs (one chain of two-wide additions) is zero only if every one is.
 #[inline]
@@ -130,17 +114,16 @@ fn not_finite(z: &ContinuousStates) -> String {
     format!("continuous state {} is {}: not finite", k + 1, z[k])
 }
 
-/// The branch offsets of `offsets` (laid out as the continuous states' tail), for the
-/// directions that have an element.
+/// The branch offsets of the continuous states `z`, for the directions that have an
+/// element.
 #[cold]
 #[inline(never)]
-fn set_offsets(friction: &mut crate::physics::friction::Friction, offsets: &[f64]) {
+fn set_offsets(friction: &mut crate::physics::friction::Friction, z: &ContinuousStates) {
     let mut sliders = *friction.state();
     let branches = friction.branches.len();
     for (d, element) in friction.elements.iter().enumerate() {
         if element.is_some() {
-            let first = d * MAX_BRANCHES;
-            sliders.offsets[d][..branches].copy_from_slice(&offsets[first..first + branches]);
+            sliders.offsets[d][..branches].copy_from_slice(&z[offset_entry(d, 0)..offset_entry(d, branches)]);
         }
     }
     friction.set_state(sliders);
@@ -169,22 +152,22 @@ impl Tire {
         if !all_finite(z) {
             return Err(not_finite(z));
         }
-        let (states, offsets) = z.split_at(MAX_STATES);
-        // Every slot at once, those past the model's states masked to zero.
-        let present = &PRESENT_STATES[self.rolling.affine().states()];
+        let n = self.rolling.affine().states();
+        // Every slot at once, those past the model's states masked to zero (no branch per
+        // slot).
         self.states = StateVector::from(std::array::from_fn(|j| {
-            f64::from_bits(states[j].to_bits() & present[j])
+            f64::from_bits(z[j].to_bits() & u64::from(j < n).wrapping_neg())
         }));
         if let Some(friction) = self.friction.as_mut() {
             // All offsets at once, bitwise and without a branch per entry: the usual call
             // moves none. (Entries the tire lacks, set to anything but zero, take the
             // general path, which leaves them out.)
-            let moved = offsets
+            let moved = z[offset_entry(0, 0)..]
                 .iter()
                 .zip(friction.state().offsets.as_flattened())
                 .fold(0, |moved, (new, old)| moved | (new.to_bits() ^ old.to_bits()));
             if moved != 0 {
-                set_offsets(friction, offsets);
+                set_offsets(friction, z);
             }
         }
         self.changed();

@@ -118,6 +118,13 @@ pub struct Step {
     pub error: f64,
 }
 
+impl Step {
+    /// Whether the step is within `tolerance` (and finite).
+    fn accepted(&self, tolerance: f64) -> bool {
+        self.error <= tolerance && self.end.cos.is_finite()
+    }
+}
+
 /// One exprb43 step of length `h` from `start`, where the flow has rate and slope
 /// `(rate, slope)`. With `g(theta) = f(theta) - slope theta`:
 /// `U2 = theta + h/2 phi1(z/2) f`, `U3 = theta + h phi1(z) (f + D2)`,
@@ -216,15 +223,10 @@ pub fn first_steps_together<F: AngleFlow, const N: usize>(
             continue;
         }
         let taken = steps[j];
-        let accepted = taken.error <= tolerance && taken.end.cos.is_finite();
-        ends[j] = if !accepted {
-            let next = shortened(lengths[j], taken.error, tolerance);
+        ends[j] = if !taken.accepted(tolerance) {
             // Too short to go on: the integration taken again gives up as it would.
-            if next <= 1e-15 * lengths[j] {
-                FirstStep::Again
-            } else {
-                FirstStep::Shorter(next)
-            }
+            shortened(lengths[j], taken.error, tolerance, lengths[j])
+                .map_or(FirstStep::Again, FirstStep::Shorter)
         } else if event(j, &taken.end) >= -threshold {
             FirstStep::End(taken.end)
         } else {
@@ -234,13 +236,15 @@ pub fn first_steps_together<F: AngleFlow, const N: usize>(
     ends
 }
 
-/// The next length to try after a step of `h` with `error` above `tolerance`.
-fn shortened(h: f64, error: f64, tolerance: f64) -> f64 {
-    h * if error.is_finite() {
+/// The next length to try after a step of `h` with `error` above `tolerance`, in an
+/// integration over `length`; `None` where the steps have shrunk to nothing.
+fn shortened(h: f64, error: f64, tolerance: f64, length: f64) -> Option<f64> {
+    let next = h * if error.is_finite() {
         (0.9 * (tolerance / error).sqrt().sqrt()).clamp(0.1, 0.5)
     } else {
         0.1
-    }
+    };
+    (next > 1e-15 * length).then_some(next)
 }
 
 /// Where an integration ended.
@@ -280,12 +284,8 @@ pub fn integrate<F: AngleFlow>(
             return Some(Outcome::End(at));
         }
         let taken = step(flow, &at, start_rate, h);
-        let accepted = taken.error <= tolerance && taken.end.cos.is_finite();
-        if !accepted {
-            h = shortened(h, taken.error, tolerance);
-            if h <= 1e-15 * length {
-                return None;
-            }
+        if !taken.accepted(tolerance) {
+            h = shortened(h, taken.error, tolerance, length)?;
             continue;
         }
         if event(&taken.end) < -threshold {
