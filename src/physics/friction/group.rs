@@ -18,22 +18,67 @@
 //! Each evaluation also gives an event value: negative while the group stays in its mode
 //! (stick or slide), crossing zero where it changes.
 
+// Members index several arrays together (forces, stiffnesses, limits, deflections).
+#![allow(clippy::needless_range_loop)]
+
 use super::Direction;
 
 /// The most directions a group has: the ellipse's two.
 pub const MAX_MEMBERS: usize = 2;
 
-/// One group's branch quantities: its first `count` directions (by [`Direction`] in
-/// `direction`), each with its deflection, sticking rate, stiffness, damping and limit.
+/// One group's branch constants over a step: its first `count` directions (by
+/// [`Direction`] in `direction`), each with its stiffness, damping and limit. Slots past
+/// `count` are zero.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct GroupInput {
+pub struct GroupLaw {
     pub count: usize,
     pub direction: [usize; MAX_MEMBERS],
-    pub deflection: [f64; MAX_MEMBERS],
-    pub sticking_rate: [f64; MAX_MEMBERS],
     pub stiffness: [f64; MAX_MEMBERS],
     pub damping: [f64; MAX_MEMBERS],
     pub limit: [f64; MAX_MEMBERS],
+    /// Made with each member ([`GroupLaw::with_member`]), so that an evaluation
+    /// multiplies where it would divide: `1 / L_k`, the projection's weights
+    /// `a_k = Dw_k / L_k^2`, `1 / Dw_k` (zero for a spring), and whether any member is
+    /// damped.
+    inverse_limit: [f64; MAX_MEMBERS],
+    weight: [f64; MAX_MEMBERS],
+    inverse_damping: [f64; MAX_MEMBERS],
+    damped: bool,
+}
+
+/// A group's law at one state: its constants (by reference: an evaluation copies only
+/// what changes), and by member the branch deflection and its sticking rate.
+#[derive(Clone, Copy, Debug)]
+pub struct GroupInput<'a> {
+    pub law: &'a GroupLaw,
+    pub deflection: [f64; MAX_MEMBERS],
+    pub sticking_rate: [f64; MAX_MEMBERS],
+}
+
+/// A law without members.
+static NO_LAW: GroupLaw = GroupLaw {
+    count: 0,
+    direction: [0; MAX_MEMBERS],
+    stiffness: [0.0; MAX_MEMBERS],
+    damping: [0.0; MAX_MEMBERS],
+    limit: [0.0; MAX_MEMBERS],
+    inverse_limit: [0.0; MAX_MEMBERS],
+    weight: [0.0; MAX_MEMBERS],
+    inverse_damping: [0.0; MAX_MEMBERS],
+    damped: false,
+};
+
+impl Default for GroupInput<'_> {
+    fn default() -> Self {
+        GroupInput::at_rest(&NO_LAW)
+    }
+}
+
+impl std::ops::Deref for GroupInput<'_> {
+    type Target = GroupLaw;
+    fn deref(&self) -> &GroupLaw {
+        self.law
+    }
 }
 
 /// What the group does: deflection rates and forces by member, and the event value.
@@ -66,6 +111,15 @@ struct Search {
     start: f64,
     weight: Members,
     ratio_squared: Members,
+}
+
+impl Search {
+    /// A place holder where no search is made.
+    const NONE: Search = Search {
+        start: 0.0,
+        weight: [0.0; MAX_MEMBERS],
+        ratio_squared: [0.0; MAX_MEMBERS],
+    };
 }
 
 /// One Newton step of a search.
@@ -135,9 +189,11 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
     let count = inputs.len().min(MAX_TOGETHER);
     let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
     let mut utilisations = [0.0; MAX_TOGETHER];
-    // The searches whose Newton steps go on.
-    let mut searches: [Option<Search>; MAX_TOGETHER] = [None; MAX_TOGETHER];
     let mut lambdas = [0.0; MAX_TOGETHER];
+    // The searches, and which of them go on (their indices, the first `pending`): a
+    // round of Newton steps visits only those.
+    let mut searches = [Search::NONE; MAX_TOGETHER];
+    let mut going_on = [0; MAX_TOGETHER];
     let mut pending = 0;
     for j in 0..count {
         let input = &inputs[j];
@@ -151,43 +207,42 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
         match input.projection(&trial, utilisation) {
             Projection::Settled(lambda) => lambdas[j] = lambda,
             Projection::Search(search) => {
-                (lambdas[j], searches[j]) = (search.start, Some(search));
+                (lambdas[j], searches[j]) = (search.start, search);
+                going_on[pending] = j;
                 pending += 1;
             }
         }
     }
     for _ in 0..NEWTON_STEPS {
+        let mut still = 0;
+        for p in 0..pending {
+            let j = going_on[p];
+            match searches[j].newton_step(lambdas[j]) {
+                Some(Step::Next(lambda)) => {
+                    lambdas[j] = lambda;
+                    going_on[still] = j;
+                    still += 1;
+                }
+                Some(Step::Settled(lambda)) => lambdas[j] = lambda,
+                // Out of the admissible range: the monotone search from its start.
+                None => lambdas[j] = inputs[j].lambda_monotone(&trials[j], &searches[j]),
+            }
+        }
+        pending = still;
         if pending == 0 {
             break;
         }
-        for j in 0..count {
-            let Some(search) = &searches[j] else { continue };
-            match search.newton_step(lambdas[j]) {
-                Some(Step::Next(lambda)) => lambdas[j] = lambda,
-                Some(Step::Settled(lambda)) => {
-                    (lambdas[j], searches[j]) = (lambda, None);
-                    pending -= 1;
-                }
-                // Out of the admissible range: the monotone search from its start.
-                None => {
-                    lambdas[j] = inputs[j].lambda_monotone(&trials[j], search);
-                    searches[j] = None;
-                    pending -= 1;
-                }
-            }
-        }
+    }
+    // Not settled within the Newton steps.
+    for &j in &going_on[..pending] {
+        lambdas[j] = inputs[j].lambda_monotone(&trials[j], &searches[j]);
     }
     for j in 0..count {
         let input = &inputs[j];
-        if !(input.damped() && sliding[j]) {
-            continue;
+        if input.damped() && sliding[j] {
+            let force = input.projected(&trials[j], lambdas[j]);
+            outputs[j] = input.damped_sliding(force, utilisations[j]);
         }
-        // Not settled within the Newton steps.
-        if let Some(search) = &searches[j] {
-            lambdas[j] = input.lambda_monotone(&trials[j], search);
-        }
-        let force = input.projected(&trials[j], lambdas[j]);
-        outputs[j] = input.damped_sliding(force, utilisations[j]);
     }
 }
 
@@ -209,42 +264,72 @@ pub fn outward_cosine_from(along: f64, normal_norm: f64, rate_norm: f64) -> f64 
     if norm > 0.0 { along / norm } else { 0.0 }
 }
 
-impl GroupInput {
-    /// Adds direction `direction` with its constants (deflection and rate zero).
+impl GroupLaw {
+    /// Adds direction `direction` with its constants.
     pub fn with_member(mut self, direction: Direction, stiffness: f64, damping: f64, limit: f64) -> Self {
         let m = self.count;
         self.direction[m] = direction as usize;
         self.stiffness[m] = stiffness;
         self.damping[m] = damping;
         self.limit[m] = limit;
+        self.inverse_limit[m] = limit.recip();
+        self.weight[m] = damping / (limit * limit);
+        self.inverse_damping[m] = if damping > 0.0 { damping.recip() } else { 0.0 };
+        self.damped |= damping > 0.0;
         self.count += 1;
         self
     }
 
-    /// The indices of its members.
+    /// The indices of its members. (The law's own sums take every slot: a missing
+    /// member's constants, deflection and rate are zero, so it adds nothing, and the
+    /// loops have a fixed length.)
     pub fn members(&self) -> std::ops::Range<usize> {
         0..self.count.min(MAX_MEMBERS)
     }
 
     /// Damped if its elements have dampers (both or neither: checked with the parameters).
+    #[inline]
     pub fn damped(&self) -> bool {
-        self.members().any(|k| self.damping[k] > 0.0)
+        self.damped
     }
 
     /// `sum (F_k / L_k)^2` for forces `force`.
+    #[inline]
     pub fn utilisation(&self, force: &Members) -> f64 {
         let mut sum = 0.0;
-        for k in self.members() {
-            let ratio = force[k] / self.limit[k];
+        for k in 0..MAX_MEMBERS {
+            let ratio = force[k] * self.inverse_limit[k];
             sum += ratio * ratio;
         }
         sum
     }
 
+    /// The rate of a spring group's utilisation `sum (K_k b_k / L_k)^2` where its
+    /// deflections `b` move at `rate`.
+    pub fn utilisation_rate(&self, deflection: &Members, rate: &Members) -> f64 {
+        let mut sum = 0.0;
+        for k in 0..MAX_MEMBERS {
+            let scale = self.stiffness[k] * self.inverse_limit[k];
+            sum += 2.0 * (scale * deflection[k]) * (scale * rate[k]);
+        }
+        sum
+    }
+}
+
+impl<'a> GroupInput<'a> {
+    /// The law's group with every deflection and rate zero.
+    pub fn at_rest(law: &'a GroupLaw) -> Self {
+        GroupInput {
+            law,
+            deflection: [0.0; MAX_MEMBERS],
+            sticking_rate: [0.0; MAX_MEMBERS],
+        }
+    }
+
     /// The spring forces `K b`.
     pub fn spring_force(&self) -> Members {
         let mut force = [0.0; MAX_MEMBERS];
-        for k in self.members() {
+        for k in 0..MAX_MEMBERS {
             force[k] = self.stiffness[k] * self.deflection[k];
         }
         force
@@ -253,7 +338,7 @@ impl GroupInput {
     /// The force that sticking needs: `K b + Dw g`.
     pub fn sticking_force(&self) -> Members {
         let mut force = self.spring_force();
-        for k in self.members() {
+        for k in 0..MAX_MEMBERS {
             force[k] += self.damping[k] * self.sticking_rate[k];
         }
         force
@@ -270,7 +355,7 @@ impl GroupInput {
                 .fold(0.0, f64::max)
         } else {
             self.members()
-                .map(|k| (self.stiffness[k] * self.sticking_rate[k] / self.limit[k]).abs())
+                .map(|k| (self.stiffness[k] * self.sticking_rate[k] * self.inverse_limit[k]).abs())
                 .sum()
         }
     }
@@ -302,7 +387,7 @@ impl GroupInput {
             0.0
         };
         let mut rate = [0.0; MAX_MEMBERS];
-        for k in self.members() {
+        for k in 0..MAX_MEMBERS {
             rate[k] = self.sticking_rate[k] - lambda * flow.normal[k];
         }
         GroupOutput {
@@ -325,8 +410,8 @@ impl GroupInput {
     fn flow(&self, force: &Members) -> Flow {
         let mut flow = Flow::default();
         let (mut normal_norm, mut rate_norm) = (0.0, 0.0);
-        for k in self.members() {
-            let normal = force[k] / (self.limit[k] * self.limit[k]);
+        for k in 0..MAX_MEMBERS {
+            let normal = force[k] * (self.inverse_limit[k] * self.inverse_limit[k]);
             let force_rate = self.stiffness[k] * self.sticking_rate[k];
             flow.normal[k] = normal;
             flow.along += normal * force_rate;
@@ -363,8 +448,8 @@ impl GroupInput {
     /// follows `Dw db/dt = F - K b`.
     fn damped_sliding(&self, force: Members, utilisation: f64) -> GroupOutput {
         let mut rate = [0.0; MAX_MEMBERS];
-        for k in self.members() {
-            rate[k] = (force[k] - self.stiffness[k] * self.deflection[k]) / self.damping[k];
+        for k in 0..MAX_MEMBERS {
+            rate[k] = (force[k] - self.stiffness[k] * self.deflection[k]) * self.inverse_damping[k];
         }
         GroupOutput {
             rate,
@@ -389,9 +474,8 @@ impl GroupInput {
     /// `F_k = T_k / (1 + lambda a_k)`.
     fn projected(&self, trial: &Members, lambda: f64) -> Members {
         let mut force = [0.0; MAX_MEMBERS];
-        for k in self.members() {
-            let weight = self.damping[k] / (self.limit[k] * self.limit[k]);
-            force[k] = trial[k] / (1.0 + lambda * weight);
+        for k in 0..MAX_MEMBERS {
+            force[k] = trial[k] / (1.0 + lambda * self.weight[k]);
         }
         force
     }
@@ -399,10 +483,7 @@ impl GroupInput {
     /// The multiplier of [`GroupInput::closest_point`] where it has a closed form, else
     /// where its search starts.
     fn projection(&self, trial: &Members, utilisation: f64) -> Projection {
-        let mut weight = [0.0; MAX_MEMBERS];
-        for k in self.members() {
-            weight[k] = self.damping[k] / (self.limit[k] * self.limit[k]);
-        }
+        let weight = self.weight;
         let mut moving = self.members().filter(|&k| trial[k] != 0.0);
         let first = moving.next();
         match (first, moving.next()) {
@@ -414,7 +495,7 @@ impl GroupInput {
             (None, _) => Projection::Settled(0.0),
             _ => {
                 let largest = self.members().map(|k| weight[k]).fold(0.0, f64::max);
-                let ratio_squared = [0, 1].map(|k| (trial[k] / self.limit[k]).powi(2));
+                let ratio_squared = [0, 1].map(|k| (trial[k] * self.inverse_limit[k]).powi(2));
                 Projection::Search(Search {
                     start: (utilisation.sqrt() - 1.0) / largest,
                     weight,
@@ -453,7 +534,7 @@ impl GroupInput {
             if shrink.is_nan() || shrink <= 0.0 {
                 return None;
             }
-            let ratio = trial[k] / self.limit[k] * shrink;
+            let ratio = trial[k] * self.inverse_limit[k] * shrink;
             sum += ratio * ratio;
             slope -= 2.0 * ratio * ratio * weight[k] * shrink;
         }
@@ -466,15 +547,18 @@ impl GroupInput {
 mod tests {
     use super::*;
 
-    fn planar(b: [f64; 2], g: [f64; 2], damping: f64) -> GroupInput {
+    fn planar(b: [f64; 2], g: [f64; 2], damping: f64) -> GroupInput<'static> {
+        planar_damped(b, g, [damping, 2.0 * damping])
+    }
+
+    fn planar_damped(b: [f64; 2], g: [f64; 2], damping: [f64; 2]) -> GroupInput<'static> {
+        let law = GroupLaw::default()
+            .with_member(Direction::Longitudinal, 1000.0, damping[0], 30.0)
+            .with_member(Direction::Lateral, 400.0, damping[1], 20.0);
         GroupInput {
-            count: 2,
-            direction: [Direction::Longitudinal as usize, Direction::Lateral as usize],
             deflection: b,
             sticking_rate: g,
-            stiffness: [1000.0, 400.0],
-            damping: [damping, 2.0 * damping],
-            limit: [30.0, 20.0],
+            ..GroupInput::at_rest(Box::leak(Box::new(law)))
         }
     }
 
@@ -567,8 +651,7 @@ mod tests {
                 ([-0.04, 0.01], [-1.0, 200.0]),
                 ([0.0301, 0.0001], [1e-6, 0.0]),
             ] {
-                let mut input = planar(b, g, 10.0);
-                input.damping[1] = damping_ratio * input.damping[0];
+                let input = planar_damped(b, g, [10.0, damping_ratio * 10.0]);
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
                 if utilisation <= 1.0 {

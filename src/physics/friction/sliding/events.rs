@@ -2,7 +2,7 @@
 //! falsi, Illinois), and whether a limit is touched and left again between samples (a
 //! parabola through three samples, then a golden-section search on the accurate solution).
 
-use super::{Events, Modes, NotConverged, SlidingStep, Vector};
+use super::{Events, MAX_MEMBERS, Modes, NO_EVENT, NotConverged, SlidingStep, Vector};
 use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::{Group, MAX_BRANCHES};
 
@@ -59,6 +59,21 @@ pub(super) fn peak_between(first: &Events, middle: &Events, last: &Events) -> Op
     None
 }
 
+/// Whether [`peak_between`] may find a peak: the parabola's peak within the samples is at
+/// most `e1 + |e2 - e0| / 4` above the middle one (at `|s| <= 1` its rise is
+/// `|slope| |s| / 2`), so where that bound is within the tolerance for every group there
+/// is none. One pass without a branch each; a group that does not exist gives no bound.
+fn may_peak(first: &Events, middle: &Events, last: &Events) -> bool {
+    let (first, middle, last) = (first.as_flattened(), middle.as_flattened(), last.as_flattened());
+    let mut highest = f64::NEG_INFINITY;
+    for k in 0..first.len() {
+        let bound = middle[k] + 0.25 * (last[k] - first[k]).abs();
+        // NaN (no such group) leaves `highest` as it was.
+        highest = highest.max(bound);
+    }
+    highest > EVENT_TOLERANCE
+}
+
 /// Where within a substep a limit may have been touched, from the event values at the
 /// samples of one integration row: the first sample past the tolerance, or a peak past it
 /// between three consecutive samples, else the sample closest to its limit (within
@@ -89,15 +104,23 @@ impl InteriorSearch {
         if self.interior.is_none() {
             self.interior = first_past_tolerance(events).map(|(g, i)| (at, g, i));
         }
-        if self.interior.is_none() && self.samples >= 2 {
+        if self.interior.is_none() && self.samples >= 2 && may_peak(&self.recent[0], &self.recent[1], events)
+        {
             self.interior = peak_between(&self.recent[0], &self.recent[1], events)
                 .map(|(s, g, i)| ((index as f64 - 1.0 + s) * spacing, g, i));
         }
-        for g in 0..Group::COUNT {
-            for i in 0..MAX_BRANCHES {
-                let e = events[g][i];
-                if e > -NEAR_EVENT && self.closest.is_none_or(|(_, _, _, best)| e > best) {
-                    self.closest = Some((at, g, i, e));
+        // Usually none is near: one pass over the values to see that, without a branch each.
+        let highest = events
+            .as_flattened()
+            .iter()
+            .fold(f64::NEG_INFINITY, |m, &e| m.max(e));
+        if highest > -NEAR_EVENT {
+            for g in 0..Group::COUNT {
+                for i in 0..MAX_BRANCHES {
+                    let e = events[g][i];
+                    if e > -NEAR_EVENT && self.closest.is_none_or(|(_, _, _, best)| e > best) {
+                        self.closest = Some((at, g, i, e));
+                    }
                 }
             }
         }
@@ -201,7 +224,7 @@ impl SlidingStep<'_> {
         if !any {
             return Ok(None);
         }
-        let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
+        let slopes = self.event_rates(t, z, start_rates, start_events, modes, length, &candidate);
         let estimate = |g: usize, i: usize, end: f64, length: f64| {
             let (start, slope) = (start_events[g][i], slopes[g][i]);
             let newton = (slope > 0.0).then(|| (AIM - start) / slope);
@@ -259,7 +282,7 @@ impl SlidingStep<'_> {
         if !candidates(branches).any(|(g, i)| near(g, i)) {
             return None;
         }
-        let slopes = self.event_rates(t, z, start_rates, start_events, modes, length);
+        let slopes = self.event_rates(t, z, start_rates, start_events, modes, length, near);
         candidates(branches)
             .filter(|&(g, i)| near(g, i) && slopes[g][i] > 0.0)
             .map(|(g, i)| {
@@ -300,7 +323,8 @@ impl SlidingStep<'_> {
             if steps == SETTLE_STEPS {
                 break;
             }
-            let slope = self.event_rates(t + moved, &z_at, &rates_at, &events_at, modes, back)[g][i];
+            let this = |h: usize, j: usize| (h, j) == (g, i);
+            let slope = self.event_rates(t + moved, &z_at, &rates_at, &events_at, modes, back, this)[g][i];
             if slope.is_nan() || slope <= 0.0 {
                 return None;
             }
@@ -343,8 +367,12 @@ impl SlidingStep<'_> {
         (self.error_ratio(z, &heun, &euler) <= 1.0).then_some(heun)
     }
 
-    /// The rates of every group's event value along the motion at the start of a
-    /// substep, by one forward difference over a time short against its `length`.
+    /// The rates of the groups' event values along the motion at the start of a substep,
+    /// at least of those `needed`. A sticking spring group's event value is its
+    /// utilisation less one, a function of its deflections alone: its rate follows from
+    /// theirs. Where a needed one is another's, every rate comes from one forward
+    /// difference over a time short against the substep's `length` (an evaluation more).
+    #[allow(clippy::too_many_arguments)]
     fn event_rates(
         &self,
         t: f64,
@@ -353,14 +381,32 @@ impl SlidingStep<'_> {
         events: &Events,
         modes: &Modes,
         length: f64,
+        needed: impl Fn(usize, usize) -> bool,
     ) -> Events {
+        let mut slopes = [[f64::NAN; MAX_BRANCHES]; Group::COUNT];
+        let mut known = [[false; MAX_BRANCHES]; Group::COUNT];
+        for slot in self.slots() {
+            let (g, i) = (slot.group, slot.branch);
+            if modes[g][i] || slot.law.damped() {
+                continue;
+            }
+            let (mut deflection, mut rate) = ([0.0; MAX_MEMBERS], [0.0; MAX_MEMBERS]);
+            for m in slot.law.members() {
+                (deflection[m], rate[m]) = (z[slot.entries[m]], rates[slot.entries[m]]);
+            }
+            slopes[g][i] = slot.law.utilisation_rate(&deflection, &rate);
+            known[g][i] = true;
+        }
+        let branches = self.friction.branches.len();
+        if candidates(branches).all(|(g, i)| known[g][i] || !(needed(g, i) && events[g][i] > NO_EVENT)) {
+            return slopes;
+        }
         let delta = 1e-8 * length;
         let mut moved = *z;
         for c in 0..self.size() {
             moved[c] += delta * rates[c];
         }
         let moved_events = self.events(t + delta, &moved, modes);
-        let mut slopes = [[0.0; MAX_BRANCHES]; Group::COUNT];
         for g in 0..Group::COUNT {
             for i in 0..MAX_BRANCHES {
                 slopes[g][i] = (moved_events[g][i] - events[g][i]) / delta;
@@ -412,7 +458,8 @@ impl SlidingStep<'_> {
             if e > 0.0 && e <= LEVEL {
                 return Ok((tau, Some((z_tau, events))));
             }
-            let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length)[g][i];
+            let this = |h: usize, j: usize| (h, j) == (g, i);
+            let slope = self.event_rates(t + tau, &z_tau, &rates, &events, modes, length, this)[g][i];
             guess = (slope > 0.0).then(|| tau + (AIM - value) / slope);
             if e > 0.0 {
                 (hi, reached) = (tau, Some((z_tau, events)));

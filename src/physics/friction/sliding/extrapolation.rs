@@ -144,6 +144,7 @@ impl SlidingStep<'_> {
         // stiff slide after 3 linearly implicit steps, not 6.
         // The tableau's last row, overwritten in place as the next one is made.
         let mut table = [[0.0; SIZE]; ROWS];
+        let mut previous_error = f64::INFINITY;
         for j in 0..ROWS {
             let (mut value, interior, closest, spacing) = row_of(sequence[j])?;
             for k in 1..=j {
@@ -168,6 +169,14 @@ impl SlidingStep<'_> {
                     let interior = if look_inside { interior.or(closest) } else { None };
                     return Some((table[j], growth.clamp(0.2, 4.0), interior, spacing));
                 }
+                // Within their range of convergence the midpoint rows' estimates fall by
+                // a large factor a row. One that does not even halve shows a substep too
+                // long for them (a fast turn of a sliding force): a later row could agree
+                // with its neighbour by chance, far from the solution. A shorter substep.
+                if power == 2 && error > 0.5 * previous_error {
+                    return None;
+                }
+                previous_error = error;
             }
         }
         None

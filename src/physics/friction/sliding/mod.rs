@@ -34,7 +34,7 @@ mod implicit;
 
 use std::cell::Cell;
 
-use super::group::{GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, evaluate_together};
+use super::group::{GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, evaluate_together};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
@@ -195,9 +195,11 @@ impl Layout {
 struct Slot {
     group: usize,
     branch: usize,
-    input: GroupInput,
+    law: GroupLaw,
     entries: [usize; MAX_MEMBERS],
     states: [usize; MAX_MEMBERS],
+    /// Each member's relaxation rate, the diagonal entry of its element's state.
+    relaxation: [f64; MAX_MEMBERS],
 }
 
 impl Slot {
@@ -205,7 +207,7 @@ impl Slot {
     /// that its force is on the ellipse (along its own direction).
     fn put_on_ellipse(&self, z: &mut Vector, utilisation: f64) {
         let shrink = utilisation.sqrt().recip();
-        for m in self.input.members() {
+        for m in self.law.members() {
             z[self.entries[m]] *= shrink;
         }
     }
@@ -264,17 +266,18 @@ impl<'a> SlidingStep<'a> {
                     let Some(element) = friction.elements[d].filter(|_| limits.0[d] > 0.0) else {
                         continue;
                     };
-                    let m = slot.input.count;
+                    let m = slot.law.count;
                     slot.entries[m] = layout.branch_entry(d, i).expect("a present element");
                     slot.states[m] = element.state;
-                    slot.input = slot.input.with_member(
+                    slot.relaxation[m] = system.a[(element.state, element.state)];
+                    slot.law = slot.law.with_member(
                         direction,
                         branch.stiffness_fraction * element.stiffness,
                         branch.stiffness_fraction * element.damping,
                         branch.limit_fraction * limits.0[d],
                     );
                 }
-                if slot.input.count > 0 {
+                if slot.law.count > 0 {
                     slots[slot_count] = slot;
                     slot_count += 1;
                 }
@@ -308,12 +311,18 @@ impl<'a> SlidingStep<'a> {
     /// rates `x_rates` (whose element rows hold the sticking rate of `U`): each member's
     /// sticking rate is the model's rate of `U` with `b` in its own relaxation term.
     #[inline]
-    fn slot_input(&self, slot: &Slot, x: &StateVector, x_rates: &StateVector, z: &Vector) -> GroupInput {
-        let mut input = slot.input;
-        for m in input.members() {
+    fn slot_input<'s>(
+        &self,
+        slot: &'s Slot,
+        x: &StateVector,
+        x_rates: &StateVector,
+        z: &Vector,
+    ) -> GroupInput<'s> {
+        let mut input = GroupInput::at_rest(&slot.law);
+        for m in slot.law.members() {
             let (b, k) = (z[slot.entries[m]], slot.states[m]);
             input.deflection[m] = b;
-            input.sticking_rate[m] = x_rates[k] + self.system.a[(k, k)] * (b - x[k]);
+            input.sticking_rate[m] = x_rates[k] + slot.relaxation[m] * (b - x[k]);
         }
         input
     }
@@ -385,10 +394,10 @@ impl<'a> SlidingStep<'a> {
     /// Puts each sliding spring group back on its ellipse (it drifts by rounding).
     fn hold_on_limits(&self, z: &mut Vector, modes: &Modes) {
         for slot in self.slots() {
-            if !modes[slot.group][slot.branch] || slot.input.damped() {
+            if !modes[slot.group][slot.branch] || slot.law.damped() {
                 continue;
             }
-            let mut input = slot.input;
+            let mut input = GroupInput::at_rest(&slot.law);
             for m in input.members() {
                 input.deflection[m] = z[slot.entries[m]];
             }
