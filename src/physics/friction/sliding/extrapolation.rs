@@ -126,7 +126,8 @@ impl SlidingStep<'_> {
 
     /// Polynomial extrapolation of the rows `row_of(n)` for the step counts `sequence`,
     /// whose errors expand in powers of `(length / n)^power`, until two rows agree to the
-    /// tolerance.
+    /// tolerance; `None` if they do not, or (midpoint rows) as soon as their estimates stop
+    /// falling.
     fn extrapolate<const ROWS: usize>(
         &self,
         z: &Vector,

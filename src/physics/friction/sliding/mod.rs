@@ -4,7 +4,9 @@
 //!
 //! Within a piece every group keeps its mode, so the right-hand side is smooth; it is
 //! integrated by Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial
-//! extrapolation in h^2) to a relative 1e-12. A step that explicit method cannot finish
+//! extrapolation in h^2) to a relative 1e-12; a substep whose rows stop converging is
+//! shortened, not left to a row that agrees with its neighbour by chance. A step that
+//! explicit method cannot finish
 //! within a few hundred substeps (a stiff tire at a light load sliding on its ellipse
 //! turns its force within microseconds; a light load makes the tire's own relaxation
 //! that fast) is taken again from its start by linearly implicit Euler extrapolation,
