@@ -10,6 +10,8 @@ use super::{Events, Modes, SIZE, SlidingStep, Vector};
 
 /// Midpoint substep counts of the extrapolation rows.
 const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
+/// Euler step counts of a short substep's rows.
+const SHORT_SEQUENCE: [usize; 4] = [1, 2, 3, 4];
 
 /// One row's end, where a limit may have been touched inside it (the first sample past
 /// the tolerance, the sample closest to it), and its sample spacing.
@@ -81,6 +83,75 @@ impl SlidingStep<'_> {
         modes: &Modes,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
         self.substep_by(t, z, start, length, modes, true)
+    }
+
+    /// A short substep (to a predicted event) by explicit Euler extrapolation: rows of 1,
+    /// 2, 3 and 4 Euler steps cost 0, 1, 2 and 3 evaluations, so a substep far shorter
+    /// than the motion's time scales ends after one to three, where the midpoint rows take
+    /// six. `None` if four rows do not agree to the tolerance.
+    pub(super) fn short_substep(
+        &self,
+        t: f64,
+        z: &Vector,
+        start: (&Vector, &Events),
+        length: f64,
+        modes: &Modes,
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        self.extrapolate(z, &SHORT_SEQUENCE, 1, true, |n| {
+            Some(self.euler_row(t, z, start, length, n, modes))
+        })
+    }
+
+    /// `n` explicit Euler steps over `[t, t + length]`, with where a limit may have been
+    /// touched inside them and the sample spacing.
+    fn euler_row(
+        &self,
+        t: f64,
+        z: &Vector,
+        start: (&Vector, &Events),
+        length: f64,
+        n: usize,
+        modes: &Modes,
+    ) -> Row {
+        self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates)
+    }
+
+    /// `n` steps of `s = length / n` over `[t, t + length]`, each moving the state by
+    /// `change(s f(t_k, z_k))` (the explicit Euler step itself, or the linearly implicit
+    /// one's solve), with where a limit may have been touched inside them (as the
+    /// midpoint rows find it) and the sample spacing.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn stepped_row(
+        &self,
+        t: f64,
+        z: &Vector,
+        (start_rates, start_events): (&Vector, &Events),
+        length: f64,
+        n: usize,
+        modes: &Modes,
+        change: impl Fn(Vector) -> Vector,
+    ) -> Row {
+        let s = length / n as f64;
+        let size = self.size();
+        let mut current = *z;
+        let mut rates = *start_rates;
+        let mut search = InteriorSearch::new(start_events);
+        for k in 0..n {
+            if k > 0 {
+                let events;
+                (rates, events) = self.rates(t + k as f64 * s, &current, modes);
+                search.sample(k, s, &events);
+            }
+            for r in 0..size {
+                rates[r] *= s;
+            }
+            let change = change(rates);
+            for r in 0..size {
+                current[r] += change[r];
+            }
+        }
+        let (interior, closest) = search.found();
+        (current, interior, closest, s)
     }
 
     /// The largest difference between two rows' extrapolated values, relative to the

@@ -11,7 +11,6 @@
 //! extrapolation in `s` ([`super::extrapolation`]) raises the order by one a row, to the
 //! same relative 1e-12 as the explicit substep.
 
-use super::events::InteriorSearch;
 use super::extrapolation::Row;
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
 use crate::physics::lu::Factors;
@@ -55,7 +54,7 @@ impl SlidingStep<'_> {
         &self,
         t: f64,
         z: &Vector,
-        (start_rates, start_events): (&Vector, &Events),
+        start: (&Vector, &Events),
         (jacobian, work): (&Jacobian, &mut Matrix),
         length: f64,
         n: usize,
@@ -70,27 +69,9 @@ impl SlidingStep<'_> {
             work[r][r] += 1.0;
         }
         let lu = Factors::new(work, size)?;
-        let mut current = *z;
-        let mut rates = *start_rates;
-        let mut search = InteriorSearch::new(start_events);
-        for k in 0..n {
-            if k > 0 {
-                let events;
-                (rates, events) = self.rates(t + k as f64 * s, &current, modes);
-                search.sample(k, s, &events);
-            }
-            for r in 0..size {
-                rates[r] *= s;
-            }
-            let change = lu.solve(rates);
-            for r in 0..size {
-                current[r] += change[r];
-            }
-        }
-        let (interior, closest) = search.found();
-        current[..size]
-            .iter()
-            .all(|v| v.is_finite())
-            .then_some((current, interior, closest, s))
+        let row = self.stepped_row(t, z, start, length, n, modes, |scaled_rates| {
+            lu.solve(scaled_rates)
+        });
+        row.0[..size].iter().all(|v| v.is_finite()).then_some(row)
     }
 }

@@ -62,6 +62,12 @@ const EXPLICIT_MARGIN: usize = 64;
 /// few per time scale of the motion instead.
 const EXPLICIT_CAP: usize = 256;
 
+/// A substep to a predicted event no longer than this fraction of the longest substep
+/// (`SHORT / 4` of the fastest time constant) is tried by Euler extrapolation first
+/// ([`SlidingStep::short_substep`]): a stick that ends within microseconds of the step's
+/// start, as a rising load makes every sliding branch do.
+const SHORT: f64 = 0.01;
+
 /// A step longer than this many time constants of its fastest sliding group
 /// ([`GroupInput::sliding_rate`]) goes to the stiff method at once: the explicit one, whose
 /// substeps stay below two of them, would need more than eight substeps for stability
@@ -485,7 +491,11 @@ impl<'a> SlidingStep<'a> {
                 }
                 length = at;
             }
-            let Some((mut z_end, growth, interior, spacing)) = self.substep(t, &z, start, length, &modes)
+            let short = (predicted.is_some() && !self.stiff.get() && length <= SHORT * longest)
+                .then(|| self.short_substep(t, &z, start, length, &modes))
+                .flatten();
+            let Some((mut z_end, growth, interior, spacing)) =
+                short.or_else(|| self.substep(t, &z, start, length, &modes))
             else {
                 length *= 0.25;
                 if length <= 1e-15 * h {
