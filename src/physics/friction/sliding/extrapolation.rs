@@ -73,7 +73,10 @@ impl SlidingStep<'_> {
 
     /// An extrapolated substep from `z` with its `start` rates and event values, with
     /// where a limit may have been touched inside it and the spacing of the samples that
-    /// found it.
+    /// found it. A `short` one (to a predicted event, far shorter than the motion's time
+    /// scales) is tried by explicit Euler extrapolation first: rows of 1, 2, 3 and 4 Euler
+    /// steps cost 0, 1, 2 and 3 evaluations, and usually agree at the third, where the
+    /// midpoint rows take six; those follow if four Euler rows do not agree.
     pub(super) fn substep(
         &self,
         t: f64,
@@ -81,39 +84,13 @@ impl SlidingStep<'_> {
         start: (&Vector, &Events),
         length: f64,
         modes: &Modes,
+        short: bool,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        self.substep_by(t, z, start, length, modes, true)
-    }
-
-    /// A short substep (to a predicted event) by explicit Euler extrapolation: rows of 1,
-    /// 2, 3 and 4 Euler steps cost 0, 1, 2 and 3 evaluations, so a substep far shorter
-    /// than the motion's time scales ends after one to three, where the midpoint rows take
-    /// six. `None` if four rows do not agree to the tolerance.
-    pub(super) fn short_substep(
-        &self,
-        t: f64,
-        z: &Vector,
-        start: (&Vector, &Events),
-        length: f64,
-        modes: &Modes,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        self.extrapolate(z, &SHORT_SEQUENCE, 1, true, |n| {
-            Some(self.euler_row(t, z, start, length, n, modes))
-        })
-    }
-
-    /// `n` explicit Euler steps over `[t, t + length]`, with where a limit may have been
-    /// touched inside them and the sample spacing.
-    fn euler_row(
-        &self,
-        t: f64,
-        z: &Vector,
-        start: (&Vector, &Events),
-        length: f64,
-        n: usize,
-        modes: &Modes,
-    ) -> Row {
-        self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates)
+        let euler = |n| Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates));
+        (short && !self.stiff.get())
+            .then(|| self.extrapolate(z, &SHORT_SEQUENCE, 1, true, euler))
+            .flatten()
+            .or_else(|| self.substep_by(t, z, start, length, modes, true))
     }
 
     /// `n` steps of `s = length / n` over `[t, t + length]`, each moving the state by
@@ -125,12 +102,13 @@ impl SlidingStep<'_> {
         &self,
         t: f64,
         z: &Vector,
-        (start_rates, start_events): (&Vector, &Events),
+        start: (&Vector, &Events),
         length: f64,
         n: usize,
         modes: &Modes,
         change: impl Fn(Vector) -> Vector,
     ) -> Row {
+        let (start_rates, start_events) = start;
         let s = length / n as f64;
         let size = self.size();
         let mut current = *z;

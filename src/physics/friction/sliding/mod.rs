@@ -64,7 +64,7 @@ const EXPLICIT_CAP: usize = 256;
 
 /// A substep to a predicted event no longer than this fraction of the longest substep
 /// (`SHORT / 4` of the fastest time constant) is tried by Euler extrapolation first
-/// ([`SlidingStep::short_substep`]): a stick that ends within microseconds of the step's
+/// ([`SlidingStep::substep`]): a stick that ends within microseconds of the step's
 /// start, as a rising load makes every sliding branch do.
 const SHORT: f64 = 0.01;
 
@@ -491,11 +491,9 @@ impl<'a> SlidingStep<'a> {
                 }
                 length = at;
             }
-            let short = (predicted.is_some() && !self.stiff.get() && length <= SHORT * longest)
-                .then(|| self.short_substep(t, &z, start, length, &modes))
-                .flatten();
+            let short = predicted.is_some() && length <= SHORT * longest;
             let Some((mut z_end, growth, interior, spacing)) =
-                short.or_else(|| self.substep(t, &z, start, length, &modes))
+                self.substep(t, &z, start, length, &modes, short)
             else {
                 length *= 0.25;
                 if length <= 1e-15 * h {
