@@ -29,7 +29,7 @@ pub const MAX_MEMBERS: usize = 2;
 /// One group's branch constants over a step: its first `count` directions (by
 /// [`Direction`] in `direction`), each with its stiffness, damping and limit. Slots past
 /// `count` are zero.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct GroupLaw {
     pub count: usize,
     pub direction: [usize; MAX_MEMBERS],
@@ -38,12 +38,10 @@ pub struct GroupLaw {
     pub limit: [f64; MAX_MEMBERS],
     /// Made with each member ([`GroupLaw::with_member`]), so that an evaluation
     /// multiplies where it would divide: `1 / L_k`, the projection's weights
-    /// `a_k = Dw_k / L_k^2`, `1 / Dw_k` (zero for a spring), and whether any member is
-    /// damped.
+    /// `a_k = Dw_k / L_k^2` and `1 / Dw_k` (zero for a spring).
     inverse_limit: [f64; MAX_MEMBERS],
     weight: [f64; MAX_MEMBERS],
     inverse_damping: [f64; MAX_MEMBERS],
-    damped: bool,
 }
 
 /// A group's law at one state: its constants (by reference: an evaluation copies only
@@ -55,22 +53,15 @@ pub struct GroupInput<'a> {
     pub sticking_rate: [f64; MAX_MEMBERS],
 }
 
-/// A law without members.
-static NO_LAW: GroupLaw = GroupLaw {
-    count: 0,
-    direction: [0; MAX_MEMBERS],
-    stiffness: [0.0; MAX_MEMBERS],
-    damping: [0.0; MAX_MEMBERS],
-    limit: [0.0; MAX_MEMBERS],
-    inverse_limit: [0.0; MAX_MEMBERS],
-    weight: [0.0; MAX_MEMBERS],
-    inverse_damping: [0.0; MAX_MEMBERS],
-    damped: false,
-};
+impl Default for GroupLaw {
+    fn default() -> Self {
+        GroupLaw::EMPTY
+    }
+}
 
 impl Default for GroupInput<'_> {
     fn default() -> Self {
-        GroupInput::at_rest(&NO_LAW)
+        GroupInput::at_rest(&GroupLaw::EMPTY)
     }
 }
 
@@ -267,6 +258,18 @@ pub fn outward_cosine_from(along: f64, normal_norm: f64, rate_norm: f64) -> f64 
 }
 
 impl GroupLaw {
+    /// A law without members.
+    pub const EMPTY: GroupLaw = GroupLaw {
+        count: 0,
+        direction: [0; MAX_MEMBERS],
+        stiffness: [0.0; MAX_MEMBERS],
+        damping: [0.0; MAX_MEMBERS],
+        limit: [0.0; MAX_MEMBERS],
+        inverse_limit: [0.0; MAX_MEMBERS],
+        weight: [0.0; MAX_MEMBERS],
+        inverse_damping: [0.0; MAX_MEMBERS],
+    };
+
     /// Adds direction `direction` with its constants.
     pub fn with_member(mut self, direction: Direction, stiffness: f64, damping: f64, limit: f64) -> Self {
         let m = self.count;
@@ -277,7 +280,6 @@ impl GroupLaw {
         self.inverse_limit[m] = limit.recip();
         self.weight[m] = damping / (limit * limit);
         self.inverse_damping[m] = if damping > 0.0 { damping.recip() } else { 0.0 };
-        self.damped |= damping > 0.0;
         self.count += 1;
         self
     }
@@ -292,7 +294,7 @@ impl GroupLaw {
     /// Damped if its elements have dampers (both or neither: checked with the parameters).
     #[inline]
     pub fn damped(&self) -> bool {
-        self.damped
+        self.damping.iter().any(|&d| d > 0.0)
     }
 
     /// `sum (F_k / L_k)^2` for forces `force`.
