@@ -11,17 +11,21 @@
 /// The LU factors of an `N`x`N` matrix over its first `size` rows and columns (the rest
 /// unused), with partial pivoting, made in the matrix's own storage (a stiff substep
 /// factors one matrix per row: copies of the whole array would cost more than the
-/// elimination of its few entries in use).
+/// elimination of its few entries in use). The pivots' reciprocals are kept: a solve
+/// then multiplies, where its divisions, one per row in a chain, were most of its time.
 pub struct Factors<'m, const N: usize> {
     lu: &'m [[f64; N]; N],
     pivots: [usize; N],
+    inverse_diagonal: [f64; N],
     size: usize,
 }
 
 impl<'m, const N: usize> Factors<'m, N> {
     /// Factors `lu` in place; `None` if it is singular (or not finite).
     pub fn new(lu: &'m mut [[f64; N]; N], size: usize) -> Option<Self> {
+        let size = size.min(N);
         let mut pivots = [0; N];
+        let mut inverse_diagonal = [0.0; N];
         for k in 0..size {
             let p = (k..size).fold(k, |best, r| {
                 if lu[r][k].abs() > lu[best][k].abs() {
@@ -39,18 +43,30 @@ impl<'m, const N: usize> Factors<'m, N> {
                 upper[k][..size].swap_with_slice(&mut lower[0][..size]);
             }
             pivots[k] = p;
-            for r in k + 1..size {
-                let factor = lu[r][k] / pivot;
-                lu[r][k] = factor;
-                for c in k + 1..size {
-                    lu[r][c] -= factor * lu[k][c];
+            inverse_diagonal[k] = pivot.recip();
+            // The pivot row apart from the rows below it: the updates of a row are then
+            // independent of each other, and go two at a time.
+            let (upper, lower) = lu.split_at_mut(k + 1);
+            let pivot_row = &upper[k][k + 1..size];
+            for row in &mut lower[..size - k - 1] {
+                let factor = row[k] * inverse_diagonal[k];
+                row[k] = factor;
+                for (entry, &above) in row[k + 1..size].iter_mut().zip(pivot_row) {
+                    *entry -= factor * above;
                 }
             }
         }
-        Some(Self { lu, pivots, size })
+        Some(Self {
+            lu,
+            pivots,
+            inverse_diagonal,
+            size,
+        })
     }
 
-    /// The solution `x` of `A x = b`.
+    /// The solution `x` of `A x = b`. By columns: once an entry is known, it is taken
+    /// out of every row still to solve, so that the rows' updates do not wait on each
+    /// other (by rows, each entry waits on a sum as long as its row).
     pub fn solve(&self, mut b: [f64; N]) -> [f64; N] {
         let (lu, size) = (&self.lu, self.size);
         // P A = L U: the row exchanges in order, then L and U.
@@ -58,16 +74,17 @@ impl<'m, const N: usize> Factors<'m, N> {
             b.swap(k, self.pivots[k]);
         }
         for k in 0..size {
+            let known = b[k];
             for r in k + 1..size {
-                b[r] -= lu[r][k] * b[k];
+                b[r] -= lu[r][k] * known;
             }
         }
         for k in (0..size).rev() {
-            let mut sum = b[k];
-            for c in k + 1..size {
-                sum -= lu[k][c] * b[c];
+            let known = b[k] * self.inverse_diagonal[k];
+            b[k] = known;
+            for r in 0..k {
+                b[r] -= lu[r][k] * known;
             }
-            b[k] = sum / lu[k][k];
         }
         b
     }

@@ -83,6 +83,23 @@ pub struct GroupOutput {
 /// Forces (or rates) by member.
 pub type Members = [f64; MAX_MEMBERS];
 
+/// How a group's deflection rates move with its inputs in a fixed mode, by member `k`
+/// and `j`: `d rate_k / d b_j` and `d rate_k / d g_j` (zero rows and columns for a missing
+/// member).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RateSlopes {
+    pub by_deflection: [Members; MAX_MEMBERS],
+    pub by_sticking_rate: [Members; MAX_MEMBERS],
+}
+
+impl RateSlopes {
+    /// A sticking group: its deflections move at their sticking rates.
+    const STICKING: RateSlopes = RateSlopes {
+        by_deflection: [[0.0; MAX_MEMBERS]; MAX_MEMBERS],
+        by_sticking_rate: [[1.0, 0.0], [0.0, 1.0]],
+    };
+}
+
 /// Newton steps of the damped projection before it falls back to the monotone search.
 const NEWTON_STEPS: usize = 12;
 
@@ -374,6 +391,79 @@ impl<'a> GroupInput<'a> {
         }
     }
 
+    /// [`RateSlopes`] of the rates [`GroupInput::evaluate`] gives in the same mode, in
+    /// closed form: for the stiff integration's Jacobian, which takes them through the
+    /// chain rule instead of evaluating the whole system once per entry.
+    pub fn rate_slopes(&self, sliding: bool) -> RateSlopes {
+        let mut slopes = RateSlopes::STICKING;
+        for k in self.count.min(MAX_MEMBERS)..MAX_MEMBERS {
+            slopes.by_sticking_rate[k][k] = 0.0;
+        }
+        if !sliding {
+            return slopes;
+        }
+        if self.damped() {
+            self.damped_sliding_slopes(&mut slopes);
+        } else {
+            self.spring_sliding_slopes(&mut slopes);
+        }
+        slopes
+    }
+
+    /// A sliding spring group, `db_k/dt = g_k - lambda n_k` with `n = K b / L^2` and
+    /// `lambda = A / N`, `A = sum n K g`, `N = sum n K n`: with `c_j = K_j / L_j^2`,
+    /// `d lambda / d g_j = n_j K_j / N` and `d lambda / d b_j = c_j K_j (g_j - 2 lambda
+    /// n_j) / N`. (Where `N` is not positive, `lambda` is zero, as in the law.)
+    fn spring_sliding_slopes(&self, slopes: &mut RateSlopes) {
+        let flow = self.flow(&self.spring_force());
+        if flow.stiffness_along > 0.0 {
+            let inverse_norm = flow.stiffness_along.recip();
+            let lambda = flow.along * inverse_norm;
+            for j in self.members() {
+                let curvature = self.stiffness[j] * self.inverse_limit[j] * self.inverse_limit[j];
+                let by_rate = flow.normal[j] * self.stiffness[j] * inverse_norm;
+                let by_deflection = curvature
+                    * self.stiffness[j]
+                    * (self.sticking_rate[j] - 2.0 * lambda * flow.normal[j])
+                    * inverse_norm;
+                for k in self.members() {
+                    slopes.by_sticking_rate[k][j] -= flow.normal[k] * by_rate;
+                    slopes.by_deflection[k][j] = -flow.normal[k] * by_deflection;
+                }
+                slopes.by_deflection[j][j] -= lambda * curvature;
+            }
+        }
+    }
+
+    /// A sliding damped group, `Dw_k db_k/dt = F_k - K_k b_k` with `F_k = T_k / q_k`,
+    /// `q_k = 1 + lambda a_k`, on the ellipse: from the constraint, `d lambda / d T_j =
+    /// (F_j / (L_j^2 q_j)) / S` with `S = sum F_k^2 a_k / (L_k^2 q_k)`, so `d F_k / d T_j =
+    /// (delta_kj - F_k a_k d lambda / d T_j) / q_k`; `T = K b + Dw g`.
+    fn damped_sliding_slopes(&self, slopes: &mut RateSlopes) {
+        let trial = self.sticking_force();
+        let lambda = self.multiplier(&trial, self.utilisation(&trial));
+        let force = self.projected(&trial, lambda);
+        let mut inverse_q = [0.0; MAX_MEMBERS];
+        let mut along = [0.0; MAX_MEMBERS];
+        let mut sum = 0.0;
+        for k in self.members() {
+            inverse_q[k] = (1.0 + lambda * self.weight[k]).recip();
+            along[k] = force[k] * self.inverse_limit[k] * self.inverse_limit[k] * inverse_q[k];
+            sum += along[k] * force[k] * self.weight[k];
+        }
+        for j in self.members() {
+            let multiplier_slope = if sum != 0.0 { along[j] / sum } else { 0.0 };
+            for k in self.members() {
+                let delta = if k == j { 1.0 } else { 0.0 };
+                let force_slope = (delta - force[k] * self.weight[k] * multiplier_slope) * inverse_q[k];
+                let per_damping = force_slope * self.inverse_damping[k];
+                slopes.by_deflection[k][j] =
+                    per_damping * self.stiffness[j] - delta * self.stiffness[k] * self.inverse_damping[k];
+                slopes.by_sticking_rate[k][j] = per_damping * self.damping[j];
+            }
+        }
+    }
+
     #[inline]
     fn evaluate_springs(&self, sliding: bool) -> GroupOutput {
         let force = self.spring_force();
@@ -466,13 +556,17 @@ impl<'a> GroupInput<'a> {
     /// trial force `T` with `utilisation > 0` (outside the ellipse `lambda > 0`; inside, the
     /// same formula continues with `lambda < 0`).
     pub fn closest_point(&self, trial: &Members, utilisation: f64) -> Members {
-        let lambda = match self.projection(trial, utilisation) {
+        self.projected(trial, self.multiplier(trial, utilisation))
+    }
+
+    /// The multiplier `lambda` of [`GroupInput::closest_point`].
+    fn multiplier(&self, trial: &Members, utilisation: f64) -> f64 {
+        match self.projection(trial, utilisation) {
             Projection::Settled(lambda) => lambda,
             Projection::Search(search) => search
                 .lambda_by_norm()
                 .unwrap_or_else(|| self.lambda_monotone(trial, &search)),
-        };
-        self.projected(trial, lambda)
+        }
     }
 
     /// `F_k = T_k / (1 + lambda a_k)`.
@@ -617,6 +711,54 @@ mod tests {
                 assert!(out.force[k].abs() <= trial[k].abs() && out.force[k] * trial[k] >= 0.0);
                 let damper = input.damping[k] * out.rate[k];
                 assert!((input.stiffness[k] * input.deflection[k] + damper - out.force[k]).abs() < 1e-10);
+            }
+        }
+    }
+
+    /// A group's closed-form rate slopes are its rates' slopes, as central differences
+    /// find them: springs and spring-dampers, with one and two members, sliding and
+    /// sticking, past the ellipse and inside it.
+    #[test]
+    fn rate_slopes_are_the_slopes_of_the_rates() {
+        for damping in [0.0, 10.0] {
+            for (b, g) in [
+                ([0.02, 0.03], [5.0, -3.0]),
+                ([0.03, 0.0001], [0.01, 0.001]),
+                ([-0.04, 0.01], [-1.0, 0.3]),
+                ([0.001, 0.002], [0.01, -0.02]),
+                ([0.05, 0.0], [0.2, 0.0]),
+            ] {
+                for sliding in [true, false] {
+                    let input = planar(b, g, damping);
+                    let slopes = input.rate_slopes(sliding);
+                    for j in 0..2 {
+                        for (by_rate, delta) in [(false, 1e-9), (true, 1e-6)] {
+                            let at = |sign: f64| {
+                                let mut moved = input;
+                                if by_rate {
+                                    moved.sticking_rate[j] += sign * delta;
+                                } else {
+                                    moved.deflection[j] += sign * delta;
+                                }
+                                moved.evaluate(sliding).rate
+                            };
+                            let (plus, minus) = (at(1.0), at(-1.0));
+                            for k in 0..2 {
+                                let difference = (plus[k] - minus[k]) / (2.0 * delta);
+                                let slope = if by_rate {
+                                    slopes.by_sticking_rate[k][j]
+                                } else {
+                                    slopes.by_deflection[k][j]
+                                };
+                                assert!(
+                                    (slope - difference).abs() <= 1e-5 * (1.0 + difference.abs()),
+                                    "damping {damping}, {b:?} {g:?} sliding {sliding}: d rate {k} / d {} {j}: {slope} vs {difference}",
+                                    if by_rate { "g" } else { "b" }
+                                );
+                            }
+                        }
+                    }
+                }
             }
         }
     }

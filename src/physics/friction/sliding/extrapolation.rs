@@ -5,7 +5,7 @@
 //! substep ([`super::events`]).
 
 use super::events::{Interior, InteriorSearch};
-use super::implicit::{IMPLICIT_SEQUENCE, Matrix};
+use super::implicit::IMPLICIT_SEQUENCE;
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
 
 /// Midpoint substep counts of the extrapolation rows.
@@ -161,10 +161,9 @@ impl SlidingStep<'_> {
         look_inside: bool,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
         if self.stiff.get() {
-            let jacobian = self.jacobian(t, z, start.0, modes);
-            let mut work: Matrix = [[0.0; SIZE]; SIZE];
+            let jacobian = self.jacobian(t, z, modes);
             self.extrapolate(z, &IMPLICIT_SEQUENCE, 1, look_inside, |n| {
-                self.implicit_row(t, z, start, (&jacobian, &mut work), length, n, modes)
+                self.implicit_row(t, z, start, &jacobian, length, n, modes)
             })
         } else {
             self.extrapolate(z, &SEQUENCE, 2, look_inside, |n| {
