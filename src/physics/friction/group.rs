@@ -393,8 +393,10 @@ impl<'a> GroupInput<'a> {
 
     /// [`RateSlopes`] of the rates [`GroupInput::evaluate`] gives in the same mode, in
     /// closed form: for the stiff integration's Jacobian, which takes them through the
-    /// chain rule instead of evaluating the whole system once per entry.
-    pub fn rate_slopes(&self, sliding: bool) -> RateSlopes {
+    /// chain rule instead of evaluating the whole system once per entry. `rate` is what
+    /// that evaluation gave: a sliding spring-damper's force follows from it, with no
+    /// second projection onto the ellipse.
+    pub fn rate_slopes(&self, sliding: bool, rate: &Members) -> RateSlopes {
         let mut slopes = RateSlopes::STICKING;
         for k in self.count.min(MAX_MEMBERS)..MAX_MEMBERS {
             slopes.by_sticking_rate[k][k] = 0.0;
@@ -403,7 +405,7 @@ impl<'a> GroupInput<'a> {
             return slopes;
         }
         if self.damped() {
-            self.damped_sliding_slopes(&mut slopes);
+            self.damped_sliding_slopes(rate, &mut slopes);
         } else {
             self.spring_sliding_slopes(&mut slopes);
         }
@@ -439,10 +441,19 @@ impl<'a> GroupInput<'a> {
     /// `q_k = 1 + lambda a_k`, on the ellipse: from the constraint, `d lambda / d T_j =
     /// (F_j / (L_j^2 q_j)) / S` with `S = sum F_k^2 a_k / (L_k^2 q_k)`, so `d F_k / d T_j =
     /// (delta_kj - F_k a_k d lambda / d T_j) / q_k`; `T = K b + Dw g`.
-    fn damped_sliding_slopes(&self, slopes: &mut RateSlopes) {
+    fn damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
         let trial = self.sticking_force();
-        let lambda = self.multiplier(&trial, self.utilisation(&trial));
-        let force = self.projected(&trial, lambda);
+        // The force `K b + Dw db/dt`, and the multiplier from the member farthest along
+        // its limit: `q_k = T_k / F_k`.
+        let mut force = [0.0; MAX_MEMBERS];
+        let (mut lambda, mut farthest) = (0.0, 0.0);
+        for k in self.members() {
+            force[k] = self.stiffness[k] * self.deflection[k] + self.damping[k] * rate[k];
+            let along = (force[k] * self.inverse_limit[k]).abs();
+            if along > farthest {
+                (lambda, farthest) = ((trial[k] / force[k] - 1.0) / self.weight[k], along);
+            }
+        }
         let mut inverse_q = [0.0; MAX_MEMBERS];
         let mut along = [0.0; MAX_MEMBERS];
         let mut sum = 0.0;
@@ -730,7 +741,7 @@ mod tests {
             ] {
                 for sliding in [true, false] {
                     let input = planar(b, g, damping);
-                    let slopes = input.rate_slopes(sliding);
+                    let slopes = input.rate_slopes(sliding, &input.evaluate(sliding).rate);
                     for j in 0..2 {
                         for (by_rate, delta) in [(false, 1e-9), (true, 1e-6)] {
                             let at = |sign: f64| {

@@ -161,7 +161,7 @@ impl SlidingStep<'_> {
         look_inside: bool,
     ) -> Option<(Vector, f64, Option<Interior>, f64)> {
         if self.stiff.get() {
-            let jacobian = self.jacobian(t, z, modes);
+            let jacobian = self.jacobian(t, z, start.0, modes);
             self.extrapolate(z, &IMPLICIT_SEQUENCE, 1, look_inside, |n| {
                 self.implicit_row(t, z, start, &jacobian, length, n, modes)
             })

@@ -44,6 +44,8 @@ pub(super) struct Jacobian {
     makes: [(usize, f64); SIZE],
     /// `P` by entry: how its rate moves with the model's states.
     by_state: [[f64; MAX_STATES]; SIZE],
+    /// `M P`, states by states: what every row's `C` starts from.
+    made_by_state: [[f64; MAX_STATES]; MAX_STATES],
     /// `D` by slot: the slopes of its members' rates in its members' entries.
     blocks: [[Members; MAX_MEMBERS]; MAX_TOGETHER],
     /// Each slot's members' entries, and how many it has.
@@ -60,12 +62,13 @@ pub(super) struct Factored<'j> {
 }
 
 impl SlidingStep<'_> {
-    /// The Jacobian of the piece's right-hand side at `z`, in closed form: the model's
+    /// The Jacobian of the piece's right-hand side at `z`, where its rates are `rates`,
+    /// in closed form: the model's
     /// rates are linear in the entries (`x = M z`, rates `A x + B u`); each group's rates
     /// are its law's in its inputs ([`GroupInput::rate_slopes`]), whose deflections are
     /// entries and whose sticking rates `g = (A x)_k + r (b - x_k)` are linear in them.
     /// (By differences it took one evaluation of the whole system per entry.)
-    pub(super) fn jacobian(&self, t: f64, z: &Vector, modes: &Modes) -> Jacobian {
+    pub(super) fn jacobian(&self, t: f64, z: &Vector, rates: &Vector, modes: &Modes) -> Jacobian {
         let (layout, a) = (&self.layout, &self.system.a);
         let states = self.system.states;
         let mut jacobian = Jacobian {
@@ -73,6 +76,7 @@ impl SlidingStep<'_> {
             states,
             makes: [(0, 0.0); SIZE],
             by_state: [[0.0; MAX_STATES]; SIZE],
+            made_by_state: [[0.0; MAX_STATES]; MAX_STATES],
             blocks: [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_TOGETHER],
             slots: [([0; MAX_MEMBERS], 0); MAX_TOGETHER],
             slot_count: self.slots().len(),
@@ -92,7 +96,8 @@ impl SlidingStep<'_> {
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
         for (slot_index, slot) in self.slots().iter().enumerate() {
             let input = self.slot_input(slot, &x, &x_rates, z);
-            let slopes = input.rate_slopes(modes[slot.group][slot.branch]);
+            let rate = slot.entries.map(|entry| rates[entry]);
+            let slopes = input.rate_slopes(modes[slot.group][slot.branch], &rate);
             jacobian.slots[slot_index] = (slot.entries, slot.law.count);
             for m in slot.law.members() {
                 // Member m's sticking rate moves with the states by `A_k - r e_k` and with
@@ -107,6 +112,12 @@ impl SlidingStep<'_> {
                     row[state] -= by_rate * relaxation;
                     jacobian.blocks[slot_index][k][m] = by_rate * relaxation + slopes.by_deflection[k][m];
                 }
+            }
+        }
+        for c in 0..jacobian.size {
+            let (state, weight) = jacobian.makes[c];
+            for l in 0..states {
+                jacobian.made_by_state[state][l] += weight * jacobian.by_state[c][l];
             }
         }
         jacobian
@@ -182,18 +193,15 @@ impl Jacobian {
 
     /// `I - s J` made ready to solve with; `None` if a block of `B` or `C` is singular.
     fn factor(&self, s: f64) -> Option<Factored<'_>> {
-        let (size, states) = (self.size, self.states);
-        // C = I - s M B^-1 P: the entries outside every slot (B is the identity there)
-        // with their rows of P, those of each slot with B^-1 P over its members.
+        let states = self.states;
+        // C = I - s M B^-1 P: `M P` as if B were the identity (as it is outside every
+        // slot), and for each slot's entries the difference of B^-1 P over its members.
         let mut capacitance = [[0.0; MAX_STATES]; MAX_STATES];
-        for l in 0..states {
-            capacitance[l][l] = 1.0;
-        }
-        for c in 0..size {
-            let (state, weight) = self.makes[c];
+        for k in 0..states {
             for l in 0..states {
-                capacitance[state][l] -= s * weight * self.by_state[c][l];
+                capacitance[k][l] = -s * self.made_by_state[k][l];
             }
+            capacitance[k][k] += 1.0;
         }
         let mut inverse_blocks = [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_TOGETHER];
         for (j, &(entries, count)) in self.slots[..self.slot_count].iter().enumerate() {
@@ -368,7 +376,7 @@ mod tests {
                     prop_assume!(trial > 1e-6 && input.utilisation(&input.spring_force()) > 1e-6);
                 }
             }
-            let structured = step.jacobian(0.0, &z, &modes);
+            let structured = step.jacobian(0.0, &z, &step.rates(0.0, &z, &modes).0, &modes);
             // `J` itself: `I - s J` at `s = -1`, less the identity.
             let mut jacobian = structured.implicit_matrix::<SIZE>(-1.0);
             for k in 0..SIZE {
