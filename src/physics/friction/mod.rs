@@ -71,7 +71,7 @@ pub struct Friction {
     /// By group and branch, `1 / (phi_i / w_i)^2` (a sticking branch's utilisation per
     /// unit of its element's) and -1, or 0 and `-inf` where the model has no such group or
     /// the law no such branch: the event value of a branch while all stick is
-    /// `utilisation * weight + offset` ([`Friction::together_events`]).
+    /// `utilisation * weight + offset` ([`Friction::together_event_lines`]).
     together_event_weights: [[f64; MAX_BRANCHES]; Group::COUNT],
     together_event_offsets: [[f64; MAX_BRANCHES]; Group::COUNT],
     /// Which directions this model has an element in.
@@ -265,18 +265,18 @@ impl Friction {
         law.at(load, &self.present_directions)
     }
 
-    /// The event values (negative while sticking) of every group and branch while each
-    /// branch is with its element and sticks, at states `x` with rates `x_rates`, with the
-    /// limits given as [`Friction::inverse_limits`]; `-inf` where there is no such group. Branch `i` carries `w_i` of its element's force (of the force sticking
-    /// needs, with a damper) against `phi_i` of its limit: its utilisation is the
-    /// element's over its breakpoint squared.
+    /// Each group's utilisation `sum (F_k / L_k)^2` while every branch is with its element
+    /// and sticks, at states `x` with rates `x_rates` (the force sticking needs, with a
+    /// damper), with the limits given as [`Friction::inverse_limits`]; zero where there is
+    /// no such group. Branch `i`'s event value is then
+    /// `utilisation * weight + offset` ([`Friction::together_event_lines`]).
     #[inline]
-    pub fn together_events(
+    pub fn together_utilisation(
         &self,
         inverse_limits: &[f64; Direction::COUNT],
         x: &[f64; MAX_STATES],
         x_rates: &[f64; MAX_STATES],
-    ) -> Events {
+    ) -> [f64; Group::COUNT] {
         // Every direction, those without an element adding zero: no branch, and the sums
         // stay in registers.
         let mut utilisation = [0.0; Group::COUNT];
@@ -287,12 +287,16 @@ impl Friction {
             let ratio = (e.stiffness * x[e.state] + e.damping * x_rates[e.state]) * inverse_limit;
             utilisation[direction.group() as usize] += ratio * ratio;
         }
-        // Without a branch per entry: the weights and offsets say which exist.
-        std::array::from_fn(|g| {
-            std::array::from_fn(|i| {
-                utilisation[g] * self.together_event_weights[g][i] + self.together_event_offsets[g][i]
-            })
-        })
+        utilisation
+    }
+
+    /// By group and branch, the weight and offset of its event value in its group's
+    /// [`Friction::together_utilisation`]: branch `i` carries `w_i` of its element's force
+    /// against `phi_i` of its limit, so its utilisation is the element's over its
+    /// breakpoint squared, less one. A weight of zero and an offset of `-inf` where there
+    /// is no such group or branch.
+    pub fn together_event_lines(&self) -> (&Events, &Events) {
+        (&self.together_event_weights, &self.together_event_offsets)
     }
 
     /// Whether any element has a damper (DDT): its sliding force is then part of the

@@ -183,15 +183,19 @@ impl InverseLimits {
         let factor = load_factor(self.sensitivity, load * self.inverse_nominal_load);
         let inverse_scale = 1.0 / (factor * load);
         let mut inverse = [0.0; Direction::COUNT];
-        let mut valid = true;
+        let (mut positive, mut zeroed) = (true, 0.0);
         for ((inverse, &present), inverse_lever) in inverse.iter_mut().zip(present).zip(self.inverse_levers) {
-            // Selects and `&`, not branches: a solver asks at every evaluation. (NaN fails
-            // both comparisons.)
+            // Selects, not branches: a solver asks at every evaluation. NaN is not
+            // positive; `0 v` is NaN for an infinite or NaN `v`, so their sum is zero only
+            // if every one is finite. (One test of `0 < v < inf` by value compiles to a
+            // bit test of each, three times the instructions.)
             let value = inverse_lever * inverse_scale;
             *inverse = if present { value } else { 0.0 };
-            valid &= !present | ((value > 0.0) & (value < f64::INFINITY));
+            let checked = if present { value } else { 1.0 };
+            positive &= checked > 0.0;
+            zeroed += 0.0 * checked;
         }
-        valid.then_some(inverse)
+        (positive & (zeroed == 0.0)).then_some(inverse)
     }
 }
 

@@ -18,7 +18,8 @@
 
 use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire};
 use crate::physics::friction::{
-    Direction, EVENT_TOLERANCE, Events, Group, InverseLimits, Limits, MAX_BRANCHES, NO_EVENT, SliderState,
+    Direction, EVENT_TOLERANCE, Events, Friction, Group, InverseLimits, Limits, MAX_BRANCHES, NO_EVENT,
+    SliderState,
 };
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{Input, OutputVector};
@@ -48,11 +49,33 @@ pub struct Evaluation {
     limits_load: u64,
     inverse_limits: Option<[f64; Direction::COUNT]>,
     limit_law: InverseLimits,
+    /// While every branch sticks with its element, each group and branch's guard is
+    /// `utilisation * slope + offset` in its group's utilisation
+    /// ([`Friction::together_event_lines`] turned into guards; a slope of zero and
+    /// [`NO_GUARD`] where there is no such group or branch).
+    together_guard_slopes: ByBranch,
+    together_guard_offsets: ByBranch,
 }
 
+/// A value per group and branch.
+type ByBranch = [[f64; MAX_BRANCHES]; Group::COUNT];
+
 impl Evaluation {
-    /// Nothing evaluated yet, for a tire of parameters `p`.
-    pub fn new(p: &Parameters) -> Self {
+    /// Nothing evaluated yet, for a tire of parameters `p` and its friction.
+    pub fn new(p: &Parameters, friction: Option<&Friction>) -> Self {
+        let (mut slopes, mut offsets) = (
+            [[0.0; MAX_BRANCHES]; Group::COUNT],
+            [[NO_GUARD; MAX_BRANCHES]; Group::COUNT],
+        );
+        if let Some((weights, event_offsets)) = friction.map(Friction::together_event_lines) {
+            for (g, i) in (0..Group::COUNT).flat_map(|g| (0..MAX_BRANCHES).map(move |i| (g, i))) {
+                if event_offsets[g][i] > NO_EVENT {
+                    // group_guard(u w + o) = -w u + group_guard(o)
+                    slopes[g][i] = -weights[g][i];
+                    offsets[g][i] = group_guard(event_offsets[g][i]);
+                }
+            }
+        }
         Evaluation {
             valid: false,
             rates: [0.0; CONTINUOUS_STATES],
@@ -60,7 +83,32 @@ impl Evaluation {
             limits_load: f64::NAN.to_bits(),
             inverse_limits: None,
             limit_law: InverseLimits::new(p),
+            together_guard_slopes: slopes,
+            together_guard_offsets: offsets,
         }
+    }
+
+    /// The guards while every branch sticks with its element, from each group's
+    /// utilisation ([`Friction::together_utilisation`]), and of the load; the evaluation
+    /// is then complete.
+    #[inline]
+    fn write_together_guards(&mut self, utilisation: &[f64; Group::COUNT], load: f64) {
+        let lines = self
+            .together_guard_slopes
+            .iter()
+            .zip(&self.together_guard_offsets);
+        for ((guards, &utilisation), (slopes, offsets)) in self
+            .guards
+            .chunks_exact_mut(MAX_BRANCHES)
+            .zip(utilisation)
+            .zip(lines)
+        {
+            for ((guard, slope), offset) in guards.iter_mut().zip(slopes).zip(offsets) {
+                *guard = utilisation * slope + offset;
+            }
+        }
+        self.guards[GUARDS - 1] = load;
+        self.valid = true;
     }
 
     /// The guards of the groups' event values (`-inf` where there is no such group, or no
@@ -245,11 +293,14 @@ impl Tire {
         e.rates = [0.0; CONTINUOUS_STATES];
         let x_rates: &mut [f64; MAX_STATES] = (&mut e.rates[..MAX_STATES]).try_into().expect("the layout");
         system.write_state_rates(&x, &u, x_rates);
-        let events = (self.friction.as_ref().zip(inverse_limits.as_ref())).map(|(friction, inverse)| {
-            let x: &[f64; MAX_STATES] = x.as_slice().try_into().expect("the layout");
-            friction.together_events(inverse, x, x_rates)
-        });
-        e.write_guards(events.as_ref(), load);
+        match self.friction.as_ref().zip(inverse_limits.as_ref()) {
+            Some((friction, inverse)) => {
+                let x: &[f64; MAX_STATES] = x.as_slice().try_into().expect("the layout");
+                let utilisation = friction.together_utilisation(inverse, x, x_rates);
+                e.write_together_guards(&utilisation, load);
+            }
+            None => e.write_guards(None, load),
+        }
     }
 
     /// [`Tire::evaluate`] where a branch is apart from its element or slides: the law of

@@ -133,7 +133,7 @@ impl Tire {
         )
         .map(|f| f.with_passive_energy(model.passive().then(|| model.energy_weights(&parameters))));
         let rest = (0.0, 0.0);
-        let hybrid = hybrid::Evaluation::new(&parameters);
+        let hybrid = hybrid::Evaluation::new(&parameters, friction.as_ref());
         Ok(Self {
             load_law,
             point: (
