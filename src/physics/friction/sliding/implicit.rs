@@ -163,8 +163,8 @@ impl SlidingStep<'_> {
 
 impl Jacobian {
     /// Whether the structured solve is the cheaper: where the entries are more than twice
-    /// the model's states (Brush, whose branches multiply the entries). Otherwise `I - s J`
-    /// is small and eliminated whole.
+    /// the model's states (DDT's and SecondOrder's Brush, whose branches multiply the
+    /// entries). Otherwise `I - s J` is small and eliminated whole.
     fn worth_structure(&self) -> bool {
         self.size > DENSE.min(2 * self.states)
     }
