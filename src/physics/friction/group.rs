@@ -92,14 +92,6 @@ pub struct RateSlopes {
     pub by_sticking_rate: [Members; MAX_MEMBERS],
 }
 
-impl RateSlopes {
-    /// A sticking group: its deflections move at their sticking rates.
-    const STICKING: RateSlopes = RateSlopes {
-        by_deflection: [[0.0; MAX_MEMBERS]; MAX_MEMBERS],
-        by_sticking_rate: [[1.0, 0.0], [0.0, 1.0]],
-    };
-}
-
 /// Newton steps of the damped projection before it falls back to the monotone search.
 const NEWTON_STEPS: usize = 12;
 
@@ -397,9 +389,10 @@ impl<'a> GroupInput<'a> {
     /// that evaluation gave: a sliding spring-damper's force follows from it, with no
     /// second projection onto the ellipse.
     pub fn rate_slopes(&self, sliding: bool, rate: &Members) -> RateSlopes {
-        let mut slopes = RateSlopes::STICKING;
-        for k in self.count.min(MAX_MEMBERS)..MAX_MEMBERS {
-            slopes.by_sticking_rate[k][k] = 0.0;
+        // Sticking, the deflections move at their sticking rates.
+        let mut slopes = RateSlopes::default();
+        for k in self.members() {
+            slopes.by_sticking_rate[k][k] = 1.0;
         }
         if !sliding {
             return slopes;
@@ -567,17 +560,13 @@ impl<'a> GroupInput<'a> {
     /// trial force `T` with `utilisation > 0` (outside the ellipse `lambda > 0`; inside, the
     /// same formula continues with `lambda < 0`).
     pub fn closest_point(&self, trial: &Members, utilisation: f64) -> Members {
-        self.projected(trial, self.multiplier(trial, utilisation))
-    }
-
-    /// The multiplier `lambda` of [`GroupInput::closest_point`].
-    fn multiplier(&self, trial: &Members, utilisation: f64) -> f64 {
-        match self.projection(trial, utilisation) {
+        let lambda = match self.projection(trial, utilisation) {
             Projection::Settled(lambda) => lambda,
             Projection::Search(search) => search
                 .lambda_by_norm()
                 .unwrap_or_else(|| self.lambda_monotone(trial, &search)),
-        }
+        };
+        self.projected(trial, lambda)
     }
 
     /// `F_k = T_k / (1 + lambda a_k)`.

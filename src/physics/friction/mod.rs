@@ -68,12 +68,10 @@ pub struct Friction {
     /// The smallest `phi_i / w_i`: the share of an element's limit below which every branch
     /// sticks.
     first_breakpoint: f64,
-    /// By group and branch, `1 / (phi_i / w_i)^2` (a sticking branch's utilisation per
-    /// unit of its element's) and -1, or 0 and `-inf` where the model has no such group or
-    /// the law no such branch: the event value of a branch while all stick is
-    /// `utilisation * weight + offset` ([`Friction::together_event_lines`]).
-    together_event_weights: [[f64; MAX_BRANCHES]; Group::COUNT],
-    together_event_offsets: [[f64; MAX_BRANCHES]; Group::COUNT],
+    /// By group and branch, `1 / (phi_i / w_i)^2`: a sticking branch's utilisation per
+    /// unit of its element's; 0 where the model has no such group or the law no such
+    /// branch ([`Friction::together_branch_weights`]).
+    together_branch_weights: [[f64; MAX_BRANCHES]; Group::COUNT],
     /// Which directions this model has an element in.
     present_directions: [bool; Direction::COUNT],
     /// Which directions each [`Group`] of this model has.
@@ -175,7 +173,7 @@ impl Friction {
             }
             members
         });
-        let together_event_weights = Group::ALL.map(|g| {
+        let together_branch_weights = Group::ALL.map(|g| {
             std::array::from_fn(|i| match law.branches().get(i) {
                 Some(branch) if group_members[g as usize].contains(&true) => branch.breakpoint().powi(-2),
                 _ => 0.0,
@@ -186,10 +184,7 @@ impl Friction {
             branches: law.branches(),
             inverse_first_breakpoint: 1.0 / first_breakpoint,
             first_breakpoint,
-            // A branch that exists has a weight (its breakpoint is finite and positive).
-            together_event_offsets: together_event_weights
-                .map(|weights| weights.map(|w| if w > 0.0 { -1.0 } else { NO_EVENT })),
-            together_event_weights,
+            together_branch_weights,
             present_directions: elements.map(|e| e.is_some()),
             present: {
                 let mut present = [PresentElement::default(); Direction::COUNT];
@@ -268,8 +263,8 @@ impl Friction {
     /// Each group's utilisation `sum (F_k / L_k)^2` while every branch is with its element
     /// and sticks, at states `x` with rates `x_rates` (the force sticking needs, with a
     /// damper), with the limits given as [`Friction::inverse_limits`]; zero where there is
-    /// no such group. Branch `i`'s event value is then
-    /// `utilisation * weight + offset` ([`Friction::together_event_lines`]).
+    /// no such group. Branch `i`'s event value is then `utilisation * weight - 1`
+    /// ([`Friction::together_branch_weights`]).
     #[inline]
     pub fn together_utilisation(
         &self,
@@ -290,13 +285,13 @@ impl Friction {
         utilisation
     }
 
-    /// By group and branch, the weight and offset of its event value in its group's
-    /// [`Friction::together_utilisation`]: branch `i` carries `w_i` of its element's force
-    /// against `phi_i` of its limit, so its utilisation is the element's over its
-    /// breakpoint squared, less one. A weight of zero and an offset of `-inf` where there
-    /// is no such group or branch.
-    pub fn together_event_lines(&self) -> (&Events, &Events) {
-        (&self.together_event_weights, &self.together_event_offsets)
+    /// By group and branch, its utilisation per unit of its group's
+    /// [`Friction::together_utilisation`] while every branch sticks: branch `i` carries
+    /// `w_i` of its element's force against `phi_i` of its limit, so its utilisation is the
+    /// element's over its breakpoint squared. Positive for every branch that exists (its
+    /// breakpoint is finite and positive), zero where there is no such group or branch.
+    pub fn together_branch_weights(&self) -> &[[f64; MAX_BRANCHES]; Group::COUNT] {
+        &self.together_branch_weights
     }
 
     /// Whether any element has a damper (DDT): its sliding force is then part of the

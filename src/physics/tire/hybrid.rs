@@ -51,8 +51,8 @@ pub struct Evaluation {
     limit_law: InverseLimits,
     /// While every branch sticks with its element, each group and branch's guard is
     /// `utilisation * slope + offset` in its group's utilisation
-    /// ([`Friction::together_event_lines`] turned into guards; a slope of zero and
-    /// [`NO_GUARD`] where there is no such group or branch).
+    /// (from [`Friction::together_branch_weights`]; a slope of zero and [`NO_GUARD`]
+    /// where there is no such group or branch).
     together_guard_slopes: ByBranch,
     together_guard_offsets: ByBranch,
 }
@@ -67,12 +67,12 @@ impl Evaluation {
             [[0.0; MAX_BRANCHES]; Group::COUNT],
             [[NO_GUARD; MAX_BRANCHES]; Group::COUNT],
         );
-        if let Some((weights, event_offsets)) = friction.map(Friction::together_event_lines) {
+        if let Some(weights) = friction.map(Friction::together_branch_weights) {
             for (g, i) in (0..Group::COUNT).flat_map(|g| (0..MAX_BRANCHES).map(move |i| (g, i))) {
-                if event_offsets[g][i] > NO_EVENT {
-                    // group_guard(u w + o) = -w u + group_guard(o)
+                if weights[g][i] > 0.0 {
+                    // The event value is u w - 1: group_guard(u w - 1) = -w u + group_guard(-1).
                     slopes[g][i] = -weights[g][i];
-                    offsets[g][i] = group_guard(event_offsets[g][i]);
+                    offsets[g][i] = group_guard(-1.0);
                 }
             }
         }

@@ -2,7 +2,7 @@
 //! falsi, Illinois), and whether a limit is touched and left again between samples (a
 //! parabola through three samples, then a golden-section search on the accurate solution).
 
-use super::{Events, MAX_MEMBERS, Modes, NO_EVENT, NotConverged, SlidingStep, Vector};
+use super::{Events, Modes, NO_EVENT, NotConverged, SlidingStep, Vector};
 use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::{Group, MAX_BRANCHES};
 
@@ -390,11 +390,7 @@ impl SlidingStep<'_> {
             if modes[g][i] || slot.law.damped() {
                 continue;
             }
-            let (mut deflection, mut rate) = ([0.0; MAX_MEMBERS], [0.0; MAX_MEMBERS]);
-            for m in slot.law.members() {
-                (deflection[m], rate[m]) = (z[slot.entries[m]], rates[slot.entries[m]]);
-            }
-            slopes[g][i] = slot.law.utilisation_rate(&deflection, &rate);
+            slopes[g][i] = slot.law.utilisation_rate(&slot.of(z), &slot.of(rates));
             known[g][i] = true;
         }
         let branches = self.friction.branches.len();

@@ -21,7 +21,7 @@
 //! (where the entries are few, at most twice the states, the whole is eliminated).
 
 use super::extrapolation::Row;
-use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, SIZE, SlidingStep, Slot, Vector};
 #[cfg(doc)]
 use crate::physics::friction::group::GroupInput;
 use crate::physics::friction::group::{MAX_MEMBERS, MAX_TOGETHER, Members};
@@ -35,7 +35,7 @@ const DENSE: usize = 2 * MAX_STATES;
 pub(super) const IMPLICIT_SEQUENCE: [usize; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10];
 
 /// The Jacobian of a piece's right-hand side as `D + P M` (see the module's doc).
-pub(super) struct Jacobian {
+pub(super) struct Jacobian<'s> {
     size: usize,
     /// The model's states in use.
     states: usize,
@@ -48,14 +48,13 @@ pub(super) struct Jacobian {
     made_by_state: [[f64; MAX_STATES]; MAX_STATES],
     /// `D` by slot: the slopes of its members' rates in its members' entries.
     blocks: [[Members; MAX_MEMBERS]; MAX_TOGETHER],
-    /// Each slot's members' entries, and how many it has.
-    slots: [([usize; MAX_MEMBERS], usize); MAX_TOGETHER],
-    slot_count: usize,
+    /// The step's slots, whose entries the blocks are over.
+    slots: &'s [Slot],
 }
 
 /// What a step of length `s` solves with: `B^-1` by slot, and `C^-1`.
 pub(super) struct Factored<'j> {
-    jacobian: &'j Jacobian,
+    jacobian: &'j Jacobian<'j>,
     s: f64,
     inverse_blocks: [[Members; MAX_MEMBERS]; MAX_TOGETHER],
     inverse_capacitance: [[f64; MAX_STATES]; MAX_STATES],
@@ -63,42 +62,33 @@ pub(super) struct Factored<'j> {
 
 impl SlidingStep<'_> {
     /// The Jacobian of the piece's right-hand side at `z`, where its rates are `rates`,
-    /// in closed form: the model's
-    /// rates are linear in the entries (`x = M z`, rates `A x + B u`); each group's rates
-    /// are its law's in its inputs ([`GroupInput::rate_slopes`]), whose deflections are
-    /// entries and whose sticking rates `g = (A x)_k + r (b - x_k)` are linear in them.
-    /// (By differences it took one evaluation of the whole system per entry.)
-    pub(super) fn jacobian(&self, t: f64, z: &Vector, rates: &Vector, modes: &Modes) -> Jacobian {
+    /// in closed form: the model's rates are linear in the entries (`x = M z`, rates
+    /// `A x + B u`); each group's rates are its law's in its inputs
+    /// ([`GroupInput::rate_slopes`]), whose deflections are entries and whose sticking
+    /// rates `g = (A x)_k + r (b - x_k)` are linear in them. (By differences it took one
+    /// evaluation of the whole system per entry.)
+    pub(super) fn jacobian(&self, t: f64, z: &Vector, rates: &Vector, modes: &Modes) -> Jacobian<'_> {
         let (layout, a) = (&self.layout, &self.system.a);
         let states = self.system.states;
         let mut jacobian = Jacobian {
             size: self.size(),
             states,
-            makes: [(0, 0.0); SIZE],
+            makes: layout.made_states(),
             by_state: [[0.0; MAX_STATES]; SIZE],
             made_by_state: [[0.0; MAX_STATES]; MAX_STATES],
             blocks: [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_TOGETHER],
-            slots: [([0; MAX_MEMBERS], 0); MAX_TOGETHER],
-            slot_count: self.slots().len(),
+            slots: self.slots(),
         };
         for j in 0..layout.free_count {
-            jacobian.makes[j] = (layout.free[j], 1.0);
             for l in 0..states {
                 jacobian.by_state[j][l] = a[(layout.free[j], l)];
-            }
-        }
-        for e in layout.elements() {
-            for i in 0..layout.branches {
-                jacobian.makes[e.first + i] = (e.state, layout.weights[i]);
             }
         }
         let x = layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
         for (slot_index, slot) in self.slots().iter().enumerate() {
             let input = self.slot_input(slot, &x, &x_rates, z);
-            let rate = slot.entries.map(|entry| rates[entry]);
-            let slopes = input.rate_slopes(modes[slot.group][slot.branch], &rate);
-            jacobian.slots[slot_index] = (slot.entries, slot.law.count);
+            let slopes = input.rate_slopes(modes[slot.group][slot.branch], &slot.of(rates));
             for m in slot.law.members() {
                 // Member m's sticking rate moves with the states by `A_k - r e_k` and with
                 // its own entry by `r`.
@@ -161,7 +151,7 @@ impl SlidingStep<'_> {
     }
 }
 
-impl Jacobian {
+impl Jacobian<'_> {
     /// Whether the structured solve is the cheaper: where the entries are more than twice
     /// the model's states (DDT's and SecondOrder's Brush, whose branches multiply the
     /// entries). Otherwise `I - s J` is small and eliminated whole.
@@ -181,7 +171,8 @@ impl Jacobian {
             }
             matrix[r][r] += 1.0;
         }
-        for (j, &(entries, count)) in self.slots[..self.slot_count].iter().enumerate() {
+        for (j, slot) in self.slots.iter().enumerate() {
+            let (entries, count) = (slot.entries, slot.law.count);
             for k in 0..count {
                 for m in 0..count {
                     matrix[entries[k]][entries[m]] -= s * self.blocks[j][k][m];
@@ -204,7 +195,8 @@ impl Jacobian {
             capacitance[k][k] += 1.0;
         }
         let mut inverse_blocks = [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_TOGETHER];
-        for (j, &(entries, count)) in self.slots[..self.slot_count].iter().enumerate() {
+        for (j, slot) in self.slots.iter().enumerate() {
+            let (entries, count) = (slot.entries, slot.law.count);
             let d = &self.blocks[j];
             let inverse = &mut inverse_blocks[j];
             if count == 1 {
@@ -261,12 +253,12 @@ impl Factored<'_> {
     fn solve(&self, r: &Vector) -> Vector {
         let jacobian = self.jacobian;
         let (size, states) = (jacobian.size, jacobian.states);
-        let mut y = *r;
-        self.apply_inverse_blocks(&mut y);
+        let mut w = *r;
+        self.apply_inverse_blocks(&mut w);
         let mut made = [0.0; MAX_STATES];
         for c in 0..size {
             let (state, weight) = jacobian.makes[c];
-            made[state] += weight * y[c];
+            made[state] += weight * w[c];
         }
         let mut correction = [0.0; MAX_STATES];
         for k in 0..states {
@@ -288,7 +280,8 @@ impl Factored<'_> {
     /// `v` replaced by `B^-1 v`: the entries outside every slot stay.
     fn apply_inverse_blocks(&self, v: &mut Vector) {
         let jacobian = self.jacobian;
-        for (j, &(entries, count)) in jacobian.slots[..jacobian.slot_count].iter().enumerate() {
+        for (j, slot) in jacobian.slots.iter().enumerate() {
+            let (entries, count) = (slot.entries, slot.law.count);
             let inverse = &self.inverse_blocks[j];
             if count == 1 {
                 v[entries[0]] *= inverse[0][0];

@@ -36,7 +36,9 @@ mod implicit;
 
 use std::cell::Cell;
 
-use super::group::{GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, evaluate_together};
+use super::group::{
+    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
+};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
@@ -172,6 +174,21 @@ impl Layout {
         x
     }
 
+    /// By entry, the model state it makes and its weight there: 1 for a free state, `w_i`
+    /// for a branch deflection (the columns of [`Layout::model_states`] as a matrix).
+    fn made_states(&self) -> [(usize, f64); SIZE] {
+        let mut made = [(0, 0.0); SIZE];
+        for j in 0..self.free_count {
+            made[j] = (self.free[j], 1.0);
+        }
+        for e in self.elements() {
+            for i in 0..self.branches {
+                made[e.first + i] = (e.state, self.weights[i]);
+            }
+        }
+        made
+    }
+
     fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
         let mut z = [0.0; SIZE];
         for j in 0..self.free_count {
@@ -211,6 +228,16 @@ struct Slot {
 }
 
 impl Slot {
+    /// Its members' entries of a coupled vector (or of its rates); zero past its members,
+    /// as the group's law takes them.
+    fn of(&self, values: &Vector) -> Members {
+        let mut of = [0.0; MAX_MEMBERS];
+        for m in self.law.members() {
+            of[m] = values[self.entries[m]];
+        }
+        of
+    }
+
     /// Scales a spring group's deflections in `z`, whose forces have `utilisation`, so
     /// that its force is on the ellipse (along its own direction).
     fn put_on_ellipse(&self, z: &mut Vector, utilisation: f64) {
@@ -405,10 +432,10 @@ impl<'a> SlidingStep<'a> {
             if !modes[slot.group][slot.branch] || slot.law.damped() {
                 continue;
             }
-            let mut input = GroupInput::at_rest(&slot.law);
-            for m in input.members() {
-                input.deflection[m] = z[slot.entries[m]];
-            }
+            let input = GroupInput {
+                deflection: slot.of(z),
+                ..GroupInput::at_rest(&slot.law)
+            };
             let utilisation = input.utilisation(&input.spring_force());
             if utilisation > 0.0 {
                 slot.put_on_ellipse(z, utilisation);
