@@ -21,7 +21,7 @@
 //! (where the entries are few, at most twice the states, the whole is eliminated).
 
 use super::extrapolation::Row;
-use super::{Events, Modes, SIZE, SlidingStep, Slot, Vector};
+use super::{Events, Layout, Modes, SIZE, SlidingStep, Slot, Vector};
 #[cfg(doc)]
 use crate::physics::friction::group::GroupInput;
 use crate::physics::friction::group::{MAX_MEMBERS, MAX_TOGETHER, Members};
@@ -39,8 +39,10 @@ pub(super) struct Jacobian<'s> {
     size: usize,
     /// The model's states in use.
     states: usize,
-    /// `M` by column: the model state an entry makes, and its weight there (1 for a
-    /// free state, `w_i` for a branch deflection).
+    /// Where the entries sit: `M` is [`Layout::model_states`].
+    layout: &'s Layout,
+    /// `M` by column ([`Layout::made_states`]): the model state an entry makes, and its
+    /// weight there.
     makes: [(usize, f64); SIZE],
     /// `P` by entry: how its rate moves with the model's states.
     by_state: [[f64; MAX_STATES]; SIZE],
@@ -73,6 +75,7 @@ impl SlidingStep<'_> {
         let mut jacobian = Jacobian {
             size: self.size(),
             states,
+            layout,
             makes: layout.made_states(),
             by_state: [[0.0; MAX_STATES]; SIZE],
             made_by_state: [[0.0; MAX_STATES]; MAX_STATES],
@@ -255,11 +258,7 @@ impl Factored<'_> {
         let (size, states) = (jacobian.size, jacobian.states);
         let mut w = *r;
         self.apply_inverse_blocks(&mut w);
-        let mut made = [0.0; MAX_STATES];
-        for c in 0..size {
-            let (state, weight) = jacobian.makes[c];
-            made[state] += weight * w[c];
-        }
+        let made = jacobian.layout.model_states(&w);
         let mut correction = [0.0; MAX_STATES];
         for k in 0..states {
             for l in 0..states {
