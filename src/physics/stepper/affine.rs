@@ -107,31 +107,49 @@ enum Matrix {
     D,
 }
 
-/// One term of a matrix entry that changes with the operating point. The first term of
-/// an entry sets it, `at_rest + slope * coordinate`; any further terms of the same entry
-/// follow it and add `slope * coordinate`.
+/// The terms of a pair of neighbouring entries of one matrix's storage (column-major
+/// entries `index` and `index + 1`, `index` even) along one coordinate. The first term of
+/// a pair sets both entries, `at_rest + slope * coordinate` (a slope of zero for an entry
+/// that does not vary along it); any further terms of the same pair follow it and add
+/// `slope * coordinate`. The last entry of a matrix of odd size has no partner and is
+/// written alone.
+///
+/// Two at a time because the products read the matrices two entries at a time, right
+/// after a new operating point wrote them: a wide read of two narrow writes waits until
+/// they reach the cache, a wide read of one wide write is served from it at once (the
+/// wait was a tenth of a Model Exchange evaluation).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct VaryingTerm {
+struct VaryingPair {
     matrix: Matrix,
-    /// Column-major position in its matrix.
+    /// Column-major position in its matrix of the pair's first entry.
     index: u16,
     coordinate: u8,
     first: bool,
-    at_rest: f64,
+    at_rest: [f64; 2],
+    slope: [f64; 2],
+}
+
+/// One entry's term along one coordinate: the slope of entry `index` (column-major) of
+/// `matrix` along `coordinate`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct EntryTerm {
+    matrix: Matrix,
+    index: usize,
+    coordinate: usize,
     slope: f64,
 }
 
-/// Room for the varying terms of any model: the relaxation rates on A's diagonal, the
-/// couplings, the damper rows of C that copy them, and the transient slips' rows.
-const MAX_VARYING: usize = 64;
+/// Room for the varying pairs of any model: the relaxation rates on A's diagonal, the
+/// damper rows of C that copy them, and the transient slips' rows (at most 13 terms).
+const MAX_VARYING: usize = 32;
 
 /// `S(q) = S(0) + sum(q_k dS/dq_k)`, with only the terms that vary stored.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AffineSystem {
     at_rest: StateSpace,
-    /// Ordered by matrix (A, B, C, D), then entry; `matrix_ends[m]` is one past the last
-    /// term of matrix m.
-    varying: [VaryingTerm; MAX_VARYING],
+    /// Ordered by matrix (A, B, C, D), then pair, then coordinate; `matrix_ends[m]` is
+    /// one past the last pair of matrix m.
+    varying: [VaryingPair; MAX_VARYING],
     varying_count: usize,
     matrix_ends: [usize; 4],
 }
@@ -146,22 +164,40 @@ fn entries(s: &StateSpace) -> impl Iterator<Item = (Matrix, usize, usize, f64)> 
 }
 
 fn column_major_index(s: &StateSpace, matrix: Matrix, row: usize, column: usize) -> usize {
-    let rows = match matrix {
-        Matrix::A => s.a.nrows(),
-        Matrix::B => s.b.nrows(),
-        Matrix::C => s.c.nrows(),
-        Matrix::D => s.d.nrows(),
-    };
-    column * rows + row
+    column * storage(s, matrix).1 + row
 }
 
-/// Writes each term into one matrix's storage.
+/// A matrix's column-major entries and its row count.
+fn storage(s: &StateSpace, matrix: Matrix) -> (&[f64], usize) {
+    match matrix {
+        Matrix::A => (s.a.as_slice(), s.a.nrows()),
+        Matrix::B => (s.b.as_slice(), s.b.nrows()),
+        Matrix::C => (s.c.as_slice(), s.c.nrows()),
+        Matrix::D => (s.d.as_slice(), s.d.nrows()),
+    }
+}
+
+/// Writes each pair into one matrix's storage.
 #[inline]
-fn write_terms(storage: &mut [f64], terms: &[VaryingTerm], point: &OperatingPoint) {
+fn write_terms(storage: &mut [f64], terms: &[VaryingPair], point: &OperatingPoint) {
     for term in terms {
         let index = term.index as usize;
-        let base = if term.first { term.at_rest } else { storage[index] };
-        storage[index] = base + term.slope * point.coordinate(term.coordinate);
+        let c = point.coordinate(term.coordinate);
+        match storage.get_mut(index..index + 2) {
+            Some(pair) => {
+                let pair: &mut [f64; 2] = pair.try_into().expect("two entries");
+                let base = if term.first { term.at_rest } else { *pair };
+                *pair = [base[0] + term.slope[0] * c, base[1] + term.slope[1] * c];
+            }
+            None => {
+                let base = if term.first {
+                    term.at_rest[0]
+                } else {
+                    storage[index]
+                };
+                storage[index] = base + term.slope[0] * c;
+            }
+        }
     }
 }
 
@@ -174,42 +210,70 @@ impl AffineSystem {
         ));
         let units: [StateSpace; OperatingPoint::COORDINATES] =
             std::array::from_fn(|k| system(OperatingPoint::unit(k)));
-        let placeholder = VaryingTerm {
+        let mut unit_entries = units.each_ref().map(entries);
+        let terms = entries(&at_rest).flat_map(|(matrix, row, column, value)| {
+            let slopes = unit_entries
+                .each_mut()
+                .map(|unit| unit.next().expect("same shape").3 - value);
+            let index = column_major_index(&at_rest, matrix, row, column);
+            (0..OperatingPoint::COORDINATES).filter_map(move |coordinate| {
+                let slope = slopes[coordinate];
+                (slope != 0.0).then_some(EntryTerm {
+                    matrix,
+                    index,
+                    coordinate,
+                    slope,
+                })
+            })
+        });
+        Self::with_terms(at_rest.clone(), terms)
+    }
+
+    /// The system `at_rest` with the entry terms `terms`, paired.
+    fn with_terms(at_rest: StateSpace, terms: impl IntoIterator<Item = EntryTerm>) -> Self {
+        let placeholder = VaryingPair {
             matrix: Matrix::A,
             index: 0,
             coordinate: 0,
             first: true,
-            at_rest: 0.0,
-            slope: 0.0,
+            at_rest: [0.0; 2],
+            slope: [0.0; 2],
         };
         let mut affine = AffineSystem {
-            at_rest: at_rest.clone(),
+            at_rest,
             varying: [placeholder; MAX_VARYING],
             varying_count: 0,
             matrix_ends: [0; 4],
         };
-        let mut unit_entries = units.each_ref().map(entries);
-        for (matrix, row, column, value) in entries(&at_rest) {
-            let slopes = unit_entries
-                .each_mut()
-                .map(|unit| unit.next().expect("same shape").3 - value);
-            let mut first = true;
-            for (coordinate, &slope) in slopes.iter().enumerate().filter(|(_, s)| **s != 0.0) {
-                assert!(
-                    affine.varying_count < MAX_VARYING,
-                    "more than {MAX_VARYING} varying terms"
-                );
-                affine.varying[affine.varying_count] = VaryingTerm {
-                    matrix,
-                    index: column_major_index(&at_rest, matrix, row, column) as u16,
-                    coordinate: coordinate as u8,
-                    first,
-                    at_rest: value,
-                    slope,
+        for term in terms {
+            let index = (term.index & !1) as u16;
+            let coordinate = term.coordinate as u8;
+            let count = affine.varying_count;
+            let found = affine.varying[..count]
+                .iter()
+                .position(|p| (p.matrix, p.index, p.coordinate) == (term.matrix, index, coordinate));
+            let k = found.unwrap_or_else(|| {
+                assert!(count < MAX_VARYING, "more than {MAX_VARYING} varying pairs");
+                affine.varying[count] = VaryingPair {
+                    matrix: term.matrix,
+                    index,
+                    coordinate,
+                    ..placeholder
                 };
                 affine.varying_count += 1;
-                first = false;
-            }
+                count
+            });
+            affine.varying[k].slope[term.index & 1] = term.slope;
+        }
+        let count = affine.varying_count;
+        affine.varying[..count].sort_by_key(|t| (t.matrix, t.index, t.coordinate));
+        let mut previous = None;
+        for pair in &mut affine.varying[..count] {
+            let (values, _) = storage(&affine.at_rest, pair.matrix);
+            let index = pair.index as usize;
+            pair.at_rest = [values[index], values.get(index + 1).copied().unwrap_or_default()];
+            pair.first = previous != Some((pair.matrix, pair.index));
+            previous = Some((pair.matrix, pair.index));
         }
         affine.index_by_matrix();
         affine.mark_feedthrough();
@@ -219,8 +283,8 @@ impl AffineSystem {
     /// The same system with the wheel off the ground: no loads, no driving inputs, and
     /// every state relaxing to zero with time constant `relaxation_time`.
     pub fn lifted_off(&self, relaxation_time: f64) -> Self {
-        let mut lifted = self.clone();
-        let s = &mut lifted.at_rest;
+        let mut lifted = self.at_rest.clone();
+        let s = &mut lifted;
         s.a.fill(0.0);
         for i in 0..s.states {
             s.a[(i, i)] = -1.0 / relaxation_time;
@@ -231,26 +295,16 @@ impl AffineSystem {
             s.c.row_mut(load as usize).fill(0.0);
         }
         let rows = self.at_rest.c.nrows();
-        let is_load_row = |index: u16| Output::LOADS.iter().any(|&l| l as usize == index as usize % rows);
-        let mut kept = 0;
-        for k in 0..lifted.varying_count {
-            let term = lifted.varying[k];
-            if term.matrix == Matrix::C && !is_load_row(term.index) {
-                lifted.varying[kept] = term;
-                kept += 1;
-            }
-        }
-        lifted.varying_count = kept;
-        lifted.index_by_matrix();
-        lifted.mark_feedthrough();
-        lifted
+        let is_load_row = |index: usize| Output::LOADS.iter().any(|&l| l as usize == index % rows);
+        let kept = self
+            .entry_terms()
+            .filter(|t| t.matrix == Matrix::C && !is_load_row(t.index));
+        Self::with_terms(lifted, kept)
     }
 
-    /// Orders the entries by matrix and records where each matrix's run ends.
+    /// Records where each matrix's run of pairs ends.
     fn index_by_matrix(&mut self) {
         let count = self.varying_count;
-        // Stable: the terms of one entry keep their order, the setting one first.
-        self.varying[..count].sort_by_key(|t| (t.matrix, t.index));
         for (m, matrix) in [Matrix::A, Matrix::B, Matrix::C, Matrix::D]
             .into_iter()
             .enumerate()
@@ -279,14 +333,26 @@ impl AffineSystem {
         for (k, column) in nonzero.iter_mut().enumerate() {
             *column = self.at_rest.d.column(k).iter().any(|&v| v != 0.0);
         }
-        for term in self.varying().iter().filter(|t| t.matrix == Matrix::D) {
-            nonzero[term.index as usize / rows] = true;
+        for term in self.entry_terms().filter(|t| t.matrix == Matrix::D) {
+            nonzero[term.index / rows] = true;
         }
         self.at_rest.feedthrough = nonzero;
     }
 
-    fn varying(&self) -> &[VaryingTerm] {
+    fn varying(&self) -> &[VaryingPair] {
         &self.varying[..self.varying_count]
+    }
+
+    /// The varying pairs' terms entry by entry (those of slope zero left out).
+    fn entry_terms(&self) -> impl Iterator<Item = EntryTerm> + '_ {
+        self.varying().iter().flat_map(|pair| {
+            (0..2).filter(|&e| pair.slope[e] != 0.0).map(move |e| EntryTerm {
+                matrix: pair.matrix,
+                index: pair.index as usize + e,
+                coordinate: pair.coordinate as usize,
+                slope: pair.slope[e],
+            })
+        })
     }
 
     /// Writes the system at `point` into `system`, which must hold this system's entries
@@ -323,8 +389,8 @@ impl AffineSystem {
             }
         }
         let rows = self.at_rest.a.nrows();
-        for term in self.varying().iter().filter(|t| t.matrix == Matrix::A) {
-            let (row, column) = (term.index as usize % rows, term.index as usize / rows);
+        for term in self.entry_terms().filter(|t| t.matrix == Matrix::A) {
+            let (row, column) = (term.index % rows, term.index / rows);
             magnitude[row][column] += TYPICAL * term.slope.abs();
         }
         magnitude
@@ -339,8 +405,8 @@ impl AffineSystem {
             }
         }
         let rows = self.at_rest.b.nrows();
-        for term in self.varying().iter().filter(|t| t.matrix == Matrix::B) {
-            driven[term.index as usize % rows][term.index as usize / rows] = true;
+        for term in self.entry_terms().filter(|t| t.matrix == Matrix::B) {
+            driven[term.index % rows][term.index / rows] = true;
         }
         driven
     }
@@ -386,13 +452,117 @@ impl AffineSystem {
         slope: &mut [f64],
     ) {
         let rows = slope.len();
-        for term in self.varying() {
-            let (index, change) = (term.index as usize, term.slope * dq[term.coordinate as usize]);
+        for term in self.entry_terms() {
+            let (index, change) = (term.index, term.slope * dq[term.coordinate]);
             if term.matrix == states {
                 slope[index % rows] += change * x[index / rows];
             } else if term.matrix == inputs {
                 slope[index % rows] += change * u[index / rows];
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::load::LoadLaw;
+    use crate::physics::{ModelKind, Parameters};
+
+    /// Operating points at several speeds (both signs) and loads.
+    fn points(p: &Parameters) -> impl Iterator<Item = OperatingPoint> {
+        let law = LoadLaw::new(p);
+        [-7.0, 0.0, 0.3, 25.0].into_iter().flat_map(move |vx| {
+            [800.0, 4000.0, 9000.0].map(|load| OperatingPoint::new(vx, law.inverse_factors(load)))
+        })
+    }
+
+    fn assert_close(evaluated: &StateSpace, direct: &StateSpace, what: &str) {
+        for (matrix, (e, d)) in [
+            (evaluated.a.as_slice(), direct.a.as_slice()),
+            (evaluated.b.as_slice(), direct.b.as_slice()),
+            (evaluated.c.as_slice(), direct.c.as_slice()),
+            (evaluated.d.as_slice(), direct.d.as_slice()),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            for (k, (e, d)) in e.iter().zip(d).enumerate() {
+                assert!(
+                    (e - d).abs() <= 1e-12 * d.abs().max(1.0),
+                    "{what}: matrix {matrix} entry {k}: {e} evaluated, {d} directly"
+                );
+            }
+        }
+    }
+
+    /// Every model's system, evaluated from its samples into a system left at another
+    /// point, is the model's own system at that point: the pairs set and add every
+    /// varying entry and leave the others.
+    #[test]
+    fn evaluated_systems_are_the_models_systems() {
+        for model in ModelKind::ALL {
+            let p = Parameters::default().with_model(model);
+            let equations = p.model.equations();
+            let affine = AffineSystem::from_samples(|at| equations.system(&p, &at));
+            let mut evaluated = affine.at_rest().clone();
+            for point in points(&p) {
+                affine.evaluate(&point, &mut evaluated);
+                assert_close(&evaluated, &equations.system(&p, &point), &format!("{model:?}"));
+            }
+        }
+    }
+
+    /// Off the ground only the rows of C that are not loads keep their terms; the loads,
+    /// inputs and the relaxation of the states stay as made.
+    #[test]
+    fn lifted_off_systems_keep_the_rows_that_are_not_loads() {
+        for model in ModelKind::ALL {
+            let p = Parameters::default().with_model(model);
+            let equations = p.model.equations();
+            let rolling = AffineSystem::from_samples(|at| equations.system(&p, &at));
+            let lifted = rolling.lifted_off(0.01);
+            let mut evaluated = lifted.at_rest().clone();
+            for point in points(&p) {
+                lifted.evaluate(&point, &mut evaluated);
+                let mut expected = lifted.at_rest().clone();
+                let direct = equations.system(&p, &point);
+                for output in Output::ALL.into_iter().filter(|o| !Output::LOADS.contains(o)) {
+                    expected
+                        .c
+                        .row_mut(output as usize)
+                        .copy_from(&direct.c.row(output as usize));
+                }
+                assert_close(&evaluated, &expected, &format!("{model:?} lifted off"));
+            }
+        }
+    }
+
+    /// The last entry of a matrix of odd size is written alone, and its neighbour by its
+    /// own pair.
+    #[test]
+    fn the_last_entry_of_an_odd_matrix_is_written_alone() {
+        let (rows, columns) = (Output::COUNT, DrivingInput::COUNT);
+        assert_eq!(rows * columns % 2, 1, "the feedthrough matrix has an odd size");
+        let system = |at: OperatingPoint| {
+            let mut s = StateSpace::zeros(2);
+            s.a[(0, 0)] = -1.0;
+            s.d[(rows - 1, columns - 1)] = 3.0 + 2.0 * at.vx();
+            s.d[(rows - 2, columns - 1)] = 5.0 - at.inverse_lateral_factor();
+            s
+        };
+        let affine = AffineSystem::from_samples(system);
+        let mut evaluated = affine.at_rest().clone();
+        for vx in [-2.0, 0.5, 9.0] {
+            let point = OperatingPoint::new(
+                vx,
+                InverseLengthFactors {
+                    lateral: 0.7,
+                    longitudinal: 1.2,
+                },
+            );
+            affine.evaluate(&point, &mut evaluated);
+            assert_close(&evaluated, &system(point), "odd feedthrough");
         }
     }
 }

@@ -312,8 +312,11 @@ impl ContactSystem {
     #[inline]
     pub fn dynamics_at(&mut self, point: OperatingPoint) -> &StateSpace {
         if !point.same_as(&self.current_point) {
-            self.affine.evaluate_dynamics(&point, &mut self.current);
+            // Kept first and read from where it is kept: a copy of the caller's point
+            // after the call would read it back wide, right after it was written narrow.
             self.current_point = point;
+            self.affine
+                .evaluate_dynamics(&self.current_point, &mut self.current);
             self.current_at_map_point = false;
             self.outputs_current = false;
         }

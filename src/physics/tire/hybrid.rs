@@ -141,6 +141,22 @@ const fn offset_entry(d: usize, i: usize) -> usize {
     MAX_STATES + d * MAX_BRANCHES + i
 }
 
+/// For each model state count `n`, the bits kept of each state slot: all of the first
+/// `n`, none of the others.
+const STATE_MASKS: [[u64; MAX_STATES]; MAX_STATES + 1] = {
+    let mut masks = [[0; MAX_STATES]; MAX_STATES + 1];
+    let mut n = 0;
+    while n <= MAX_STATES {
+        let mut j = 0;
+        while j < n {
+            masks[n][j] = u64::MAX;
+            j += 1;
+        }
+        n += 1;
+    }
+    masks
+};
+
 /// Whether every value is finite: `0 v` is zero for a finite value and NaN for any other,
 /// and their sum by pairs (one chain of two-wide additions) is zero only if every one is.
 #[inline]
@@ -200,12 +216,11 @@ impl Tire {
         if !all_finite(z) {
             return Err(not_finite(z));
         }
-        let n = self.rolling.affine().states();
-        // Every slot at once, those past the model's states masked to zero (no branch per
-        // slot).
-        self.states = StateVector::from(std::array::from_fn(|j| {
-            f64::from_bits(z[j].to_bits() & u64::from(j < n).wrapping_neg())
-        }));
+        // Every slot at once, those past the model's states masked to zero by a mask from
+        // a table: two entries to an instruction, written as wide as the evaluation reads
+        // them (a wide read of narrow writes just made waits for them to land).
+        let keep = &STATE_MASKS[self.rolling.affine().states().min(MAX_STATES)];
+        self.states = StateVector::from(std::array::from_fn(|j| f64::from_bits(z[j].to_bits() & keep[j])));
         if let Some(friction) = self.friction.as_mut() {
             // All offsets at once, bitwise and without a branch per entry: the usual call
             // moves none. (Entries the tire lacks, set to anything but zero, take the

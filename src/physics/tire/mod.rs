@@ -8,7 +8,7 @@ use std::fmt;
 use super::friction::separable::SeparableStep;
 use super::friction::sliding::SlidingStep;
 use super::friction::{Friction, Limits, LinearStep, SliderState};
-use super::load::LoadLaw;
+use super::load::{InverseLengthFactors, LoadLaw};
 use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
 use super::signals::{Input, OutputVector};
@@ -91,8 +91,8 @@ impl std::error::Error for StepError {}
 pub struct Tire {
     parameters: Parameters,
     load_law: LoadLaw,
-    /// The operating point last made, and the (vx, Fz) bits it was made for.
-    point: ([u64; 2], OperatingPoint),
+    /// The load's inverse length factors last made, and the Fz bits they were made for.
+    load_factors: (u64, InverseLengthFactors),
     rolling: ContactSystem,
     lifted_off: ContactSystem,
     states: StateVector,
@@ -136,10 +136,7 @@ impl Tire {
         let hybrid = hybrid::Evaluation::new(&parameters, friction.as_ref());
         Ok(Self {
             load_law,
-            point: (
-                [rest.0, rest.1].map(f64::to_bits),
-                OperatingPoint::new(rest.0, load_law.inverse_factors(rest.1)),
-            ),
+            load_factors: (f64::to_bits(rest.1), load_law.inverse_factors(rest.1)),
             parameters,
             rolling: ContactSystem::new(affine),
             lifted_off,
@@ -282,18 +279,17 @@ impl Tire {
         }
     }
 
-    /// The operating point at speed `vx` and normal load `load`, kept while they do not
-    /// change (a load costs a division).
+    /// The operating point at speed `vx` and normal load `load`. The load's factors are
+    /// kept while it does not change (they cost a division); the point itself is made
+    /// anew (two products), in the caller's hands: a copy of it kept here would be read
+    /// back wide right after it was written narrow, which waits for the writes to land.
     fn operating_point(&mut self, vx: f64, load: f64) -> OperatingPoint {
-        let key = [vx.to_bits(), load.to_bits()];
-        if key[0] != self.point.0[0] || key[1] != self.point.0[1] {
-            let point = OperatingPoint::new(vx, self.load_law.inverse_factors(load));
-            self.point = (key, point);
-            // The value in hand, not a reload of what was just stored: reading it back at
-            // once stalls on store forwarding.
-            return point;
+        if load.to_bits() != self.load_factors.0 {
+            let factors = self.load_law.inverse_factors(load);
+            self.load_factors = (load.to_bits(), factors);
+            return OperatingPoint::new(vx, factors);
         }
-        self.point.1
+        OperatingPoint::new(vx, self.load_factors.1)
     }
 
     /// The system at the current inputs.
