@@ -469,6 +469,16 @@ mod tests {
     use crate::physics::load::LoadLaw;
     use crate::physics::{ModelKind, Parameters};
 
+    /// Each model with its default parameters, and its system sampled.
+    fn sampled_models() -> impl Iterator<Item = (ModelKind, Parameters, AffineSystem)> {
+        ModelKind::ALL.into_iter().map(|model| {
+            let p = Parameters::default().with_model(model);
+            let equations = p.model.equations();
+            let affine = AffineSystem::from_samples(|at| equations.system(&p, &at));
+            (model, p, affine)
+        })
+    }
+
     /// Operating points at several speeds (both signs) and loads.
     fn points(p: &Parameters) -> impl Iterator<Item = OperatingPoint> {
         let law = LoadLaw::new(p);
@@ -501,14 +511,12 @@ mod tests {
     /// varying entry and leave the others.
     #[test]
     fn evaluated_systems_are_the_models_systems() {
-        for model in ModelKind::ALL {
-            let p = Parameters::default().with_model(model);
-            let equations = p.model.equations();
-            let affine = AffineSystem::from_samples(|at| equations.system(&p, &at));
+        for (model, p, affine) in sampled_models() {
             let mut evaluated = affine.at_rest().clone();
             for point in points(&p) {
                 affine.evaluate(&point, &mut evaluated);
-                assert_close(&evaluated, &equations.system(&p, &point), &format!("{model:?}"));
+                let direct = p.model.equations().system(&p, &point);
+                assert_close(&evaluated, &direct, &format!("{model:?}"));
             }
         }
     }
@@ -517,16 +525,13 @@ mod tests {
     /// inputs and the relaxation of the states stay as made.
     #[test]
     fn lifted_off_systems_keep_the_rows_that_are_not_loads() {
-        for model in ModelKind::ALL {
-            let p = Parameters::default().with_model(model);
-            let equations = p.model.equations();
-            let rolling = AffineSystem::from_samples(|at| equations.system(&p, &at));
+        for (model, p, rolling) in sampled_models() {
             let lifted = rolling.lifted_off(0.01);
             let mut evaluated = lifted.at_rest().clone();
             for point in points(&p) {
                 lifted.evaluate(&point, &mut evaluated);
                 let mut expected = lifted.at_rest().clone();
-                let direct = equations.system(&p, &point);
+                let direct = p.model.equations().system(&p, &point);
                 for output in Output::ALL.into_iter().filter(|o| !Output::LOADS.contains(o)) {
                     expected
                         .c
