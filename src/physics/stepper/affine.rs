@@ -283,8 +283,7 @@ impl AffineSystem {
     /// The same system with the wheel off the ground: no loads, no driving inputs, and
     /// every state relaxing to zero with time constant `relaxation_time`.
     pub fn lifted_off(&self, relaxation_time: f64) -> Self {
-        let mut lifted = self.at_rest.clone();
-        let s = &mut lifted;
+        let mut s = self.at_rest.clone();
         s.a.fill(0.0);
         for i in 0..s.states {
             s.a[(i, i)] = -1.0 / relaxation_time;
@@ -299,7 +298,7 @@ impl AffineSystem {
         let kept = self
             .entry_terms()
             .filter(|t| t.matrix == Matrix::C && !is_load_row(t.index));
-        Self::with_terms(lifted, kept)
+        Self::with_terms(s, kept)
     }
 
     /// Records where each matrix's run of pairs ends.

@@ -50,10 +50,9 @@ pub struct Evaluation {
     inverse_limits: Option<[f64; Direction::COUNT]>,
     limit_law: InverseLimits,
     /// While every branch sticks with its element, each group and branch's guard is
-    /// `utilisation * slope + offset` in its group's utilisation
-    /// (from [`Friction::together_branch_weights`]; a slope of zero and [`NO_GUARD`]
-    /// where there is no such group or branch).
-    together_guard_slopes: ByBranch,
+    /// `offset - weight * utilisation` in its group's utilisation, with the weights of
+    /// [`Friction::together_branch_weights`] (zero where there is no such group or
+    /// branch, whose offset is [`NO_GUARD`]).
     together_guard_offsets: ByBranch,
 }
 
@@ -63,19 +62,11 @@ type ByBranch = [[f64; MAX_BRANCHES]; Group::COUNT];
 impl Evaluation {
     /// Nothing evaluated yet, for a tire of parameters `p` and its friction.
     pub fn new(p: &Parameters, friction: Option<&Friction>) -> Self {
-        let (mut slopes, mut offsets) = (
-            [[0.0; MAX_BRANCHES]; Group::COUNT],
-            [[NO_GUARD; MAX_BRANCHES]; Group::COUNT],
-        );
-        if let Some(weights) = friction.map(Friction::together_branch_weights) {
-            for (g, i) in (0..Group::COUNT).flat_map(|g| (0..MAX_BRANCHES).map(move |i| (g, i))) {
-                if weights[g][i] > 0.0 {
-                    // The event value is u w - 1: group_guard(u w - 1) = -w u + group_guard(-1).
-                    slopes[g][i] = -weights[g][i];
-                    offsets[g][i] = group_guard(-1.0);
-                }
-            }
-        }
+        // The event value is u w - 1: group_guard(u w - 1) = group_guard(-1) - w u.
+        let offsets = match friction.map(Friction::together_branch_weights) {
+            Some(weights) => weights.map(|w| w.map(|w| if w > 0.0 { group_guard(-1.0) } else { NO_GUARD })),
+            None => [[NO_GUARD; MAX_BRANCHES]; Group::COUNT],
+        };
         Evaluation {
             valid: false,
             rates: [0.0; CONTINUOUS_STATES],
@@ -83,28 +74,25 @@ impl Evaluation {
             limits_load: f64::NAN.to_bits(),
             inverse_limits: None,
             limit_law: InverseLimits::new(p),
-            together_guard_slopes: slopes,
             together_guard_offsets: offsets,
         }
     }
 
     /// The guards while every branch sticks with its element, from each group's
-    /// utilisation ([`Friction::together_utilisation`]), and of the load; the evaluation
-    /// is then complete.
+    /// utilisation ([`Friction::together_utilisation`]) and its branches' weights
+    /// ([`Friction::together_branch_weights`]), and of the load; the evaluation is then
+    /// complete.
     #[inline]
-    fn write_together_guards(&mut self, utilisation: &[f64; Group::COUNT], load: f64) {
-        let lines = self
-            .together_guard_slopes
-            .iter()
-            .zip(&self.together_guard_offsets);
-        for ((guards, &utilisation), (slopes, offsets)) in self
+    fn write_together_guards(&mut self, utilisation: &[f64; Group::COUNT], weights: &ByBranch, load: f64) {
+        let lines = weights.iter().zip(&self.together_guard_offsets);
+        for ((guards, &utilisation), (weights, offsets)) in self
             .guards
             .chunks_exact_mut(MAX_BRANCHES)
             .zip(utilisation)
             .zip(lines)
         {
-            for ((guard, slope), offset) in guards.iter_mut().zip(slopes).zip(offsets) {
-                *guard = utilisation * slope + offset;
+            for ((guard, weight), offset) in guards.iter_mut().zip(weights).zip(offsets) {
+                *guard = offset - utilisation * weight;
             }
         }
         self.guards[GUARDS - 1] = load;
@@ -312,7 +300,7 @@ impl Tire {
             Some((friction, inverse)) => {
                 let x: &[f64; MAX_STATES] = x.as_slice().try_into().expect("the layout");
                 let utilisation = friction.together_utilisation(inverse, x, x_rates);
-                e.write_together_guards(&utilisation, load);
+                e.write_together_guards(&utilisation, friction.together_branch_weights(), load);
             }
             None => e.write_guards(None, load),
         }

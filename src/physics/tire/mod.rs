@@ -132,11 +132,10 @@ impl Tire {
             &affine.state_coupling(),
         )
         .map(|f| f.with_passive_energy(model.passive().then(|| model.energy_weights(&parameters))));
-        let rest = (0.0, 0.0);
         let hybrid = hybrid::Evaluation::new(&parameters, friction.as_ref());
         Ok(Self {
             load_law,
-            load_factors: (f64::to_bits(rest.1), load_law.inverse_factors(rest.1)),
+            load_factors: (0.0_f64.to_bits(), load_law.inverse_factors(0.0)),
             parameters,
             rolling: ContactSystem::new(affine),
             lifted_off,
