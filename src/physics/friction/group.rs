@@ -29,7 +29,7 @@ pub const MAX_MEMBERS: usize = 2;
 /// One group's branch constants over a step: its first `count` directions (by
 /// [`Direction`] in `direction`), each with its stiffness, damping and limit. Slots past
 /// `count` are zero.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GroupLaw {
     pub count: usize,
     pub direction: [usize; MAX_MEMBERS],

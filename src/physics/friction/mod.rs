@@ -115,6 +115,8 @@ pub struct Friction {
     together: bool,
     /// The sticking check made for the last step map ([`Friction::prepare`]).
     check: StickingCheck,
+    /// The branches as the last sliding step laid them out.
+    sliding_slots: sliding::SlidingSlots,
 }
 
 impl Friction {
@@ -214,6 +216,7 @@ impl Friction {
             state: SliderState::AT_REST,
             together: true,
             check: StickingCheck::default(),
+            sliding_slots: sliding::SlidingSlots::default(),
         })
     }
 

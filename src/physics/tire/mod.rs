@@ -343,7 +343,7 @@ impl Tire {
         let limits = Limits::at(&self.parameters, load);
         Some(SlidingStep::new(
             self.rolling.at(point),
-            self.friction.as_ref().expect("checked above"),
+            self.friction.as_mut().expect("checked above"),
             limits,
             (Self::driving_inputs(inputs), Self::driving_inputs(input_rates)),
             self.states.amax(),

@@ -50,7 +50,7 @@ fn compare(case: &Case) {
     let load = case.load_ratio * p.get(Parameter::NominalLoad);
     let model = p.model.equations();
     let affine = AffineSystem::from_samples(|at| model.system(&p, &at));
-    let friction = Friction::new(case.law, model.contact_elements(&p), &affine.state_coupling()).unwrap();
+    let mut friction = Friction::new(case.law, model.contact_elements(&p), &affine.state_coupling()).unwrap();
     let system = Tire::new(p.clone()).unwrap().system_at(case.vx, load);
     let limits = Limits::at(&p, load);
     let u = DrivingVector::new(case.inputs[0], 0.0, case.inputs[1]);
@@ -87,7 +87,13 @@ fn compare(case: &Case) {
     // (a stiff tire at a light load with Brush, kept in proptest-regressions/, ends 3e-8
     // of the travel away, where the separable step agrees with itself in parts to
     // rounding).
-    let general = SlidingStep::new(&system, &friction, limits, (u, DrivingVector::zeros()), x.amax());
+    let general = SlidingStep::new(
+        &system,
+        &mut friction,
+        limits,
+        (u, DrivingVector::zeros()),
+        x.amax(),
+    );
     let (mut slow_x, mut slow_sliders) = (x, sliders);
     let (mut split_x, mut split_sliders) = (x, sliders);
     for _ in 0..PARTS {

@@ -26,7 +26,7 @@ use super::{Events, Layout, Modes, SIZE, SlidingStep, Slot, Vector};
 use crate::physics::friction::group::GroupInput;
 use crate::physics::friction::group::{MAX_MEMBERS, MAX_TOGETHER, Members};
 use crate::physics::lu;
-use crate::physics::state_space::MAX_STATES;
+use crate::physics::state_space::{MAX_STATES, by_state_count};
 
 /// The most entries a Jacobian solved whole has.
 const DENSE: usize = 2 * MAX_STATES;
@@ -187,7 +187,12 @@ impl Jacobian<'_> {
 
     /// `I - s J` made ready to solve with; `None` if a block of `B` or `C` is singular.
     fn factor(&self, s: f64) -> Option<Factored<'_>> {
-        let states = self.states;
+        by_state_count!(self.states, N => self.factor_for::<N>(s))
+    }
+
+    /// [`Jacobian::factor`] for a model of `N` states: loops of a known length.
+    fn factor_for<const N: usize>(&self, s: f64) -> Option<Factored<'_>> {
+        let states = N;
         // C = I - s M B^-1 P: `M P` as if B were the identity (as it is outside every
         // slot), and for each slot's entries the difference of B^-1 P over its members.
         let mut capacitance = [[0.0; MAX_STATES]; MAX_STATES];
@@ -328,7 +333,7 @@ mod tests {
             let load = load_ratio * p.get(Parameter::NominalLoad);
             let equations = p.model.equations();
             let affine = AffineSystem::from_samples(|at| equations.system(&p, &at));
-            let friction =
+            let mut friction =
                 Friction::new(law, equations.contact_elements(&p), &affine.state_coupling()).unwrap();
             let system = Tire::new(p.clone()).unwrap().system_at(vx, load);
             let limits = Limits::at(&p, load);
@@ -346,7 +351,7 @@ mod tests {
                 }
             }
             let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
-            let step = SlidingStep::new(&system, &friction, limits, (u, DrivingVector::zeros()), travel);
+            let step = SlidingStep::new(&system, &mut friction, limits, (u, DrivingVector::zeros()), travel);
             let z = step.layout.pack(&x, &sliders);
             let mut modes: Modes = [[false; MAX_BRANCHES]; Group::COUNT];
             for (bit, mode) in modes.as_flattened_mut().iter_mut().enumerate() {

@@ -91,7 +91,7 @@ pub const NO_EVENT: f64 = f64::NEG_INFINITY;
 /// so it has no entry: the vector is as short as the model and law make it (two entries
 /// for RLT with Coulomb, up to twelve), which is what the substeps, the error control and
 /// the stiff method's Jacobian cost in proportion to.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Layout {
     /// The model state of each of the first `free_count` entries.
     free: [usize; MAX_STATES],
@@ -104,11 +104,23 @@ struct Layout {
     weights: [f64; MAX_BRANCHES],
     /// Entries in use.
     size: usize,
+    /// By model state, the entries it is the weighted sum of ([`Layout::model_states`]).
+    sums: [StateSum; MAX_STATES],
+}
+
+/// A model state as a sum of entries of the coupled vector: from `first` on, with
+/// `weights` (1 and zeros for a free state, each branch's `w_i` for an element's state,
+/// all zero for a state past the model's). Every sum has [`MAX_BRANCHES`] terms, those of
+/// weight zero adding nothing, so that two states are summed side by side.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct StateSum {
+    first: usize,
+    weights: [f64; MAX_BRANCHES],
 }
 
 /// Where a present element's branches are: its direction, its model state and its first
 /// branch's entry (the others follow).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct ElementEntries {
     direction: usize,
     state: usize,
@@ -142,6 +154,19 @@ impl Layout {
             }
         }
         layout.size = next;
+        // A sum of MAX_BRANCHES terms from any first entry stays within the vector.
+        debug_assert!(next + MAX_BRANCHES <= SIZE + 1);
+        for j in 0..layout.free_count {
+            let mut weights = [0.0; MAX_BRANCHES];
+            weights[0] = 1.0;
+            layout.sums[layout.free[j]] = StateSum { first: j, weights };
+        }
+        for e in &layout.elements[..layout.element_count] {
+            layout.sums[e.state] = StateSum {
+                first: e.first,
+                weights: layout.weights,
+            };
+        }
         layout
     }
 
@@ -158,18 +183,24 @@ impl Layout {
     }
 
     /// The model's states (or rates) of a coupled vector (or its rates): the free entries,
-    /// and each element's state `sum w_i b_i`.
+    /// and each element's state `sum w_i b_i`. Two states at a time, written together:
+    /// the product with the state matrix reads them two at a time, at once.
+    #[inline]
     fn model_states(&self, z: &Vector) -> StateVector {
         let mut x = StateVector::zeros();
-        for j in 0..self.free_count {
-            x[self.free[j]] = z[j];
-        }
-        for e in self.elements() {
+        let sum = |s: &StateSum| {
             let mut sum = 0.0;
-            for i in 0..self.branches {
-                sum += self.weights[i] * z[e.first + i];
+            for i in 0..MAX_BRANCHES {
+                sum += s.weights[i] * z[s.first + i];
             }
-            x[e.state] = sum;
+            sum
+        };
+        for (pair, sums) in x
+            .as_mut_slice()
+            .chunks_exact_mut(2)
+            .zip(self.sums.chunks_exact(2))
+        {
+            pair.copy_from_slice(&[sum(&sums[0]), sum(&sums[1])]);
         }
         x
     }
@@ -216,7 +247,7 @@ impl Layout {
 
 /// One group's branch `i` in the coupled vector: its law's constants, and for each
 /// member the entry of its deflection and its element's model state.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Slot {
     group: usize,
     branch: usize,
@@ -248,6 +279,78 @@ impl Slot {
     }
 }
 
+/// The branches of a sliding step laid out in its coupled vector: each group and branch
+/// with a member (a present direction with a limit), its constants filled in at the
+/// step's limits and relaxation rates. A direction with a zero limit is left out: its
+/// branch deflections stay at zero ([`SlidingStep::prepare`] puts them there). The
+/// friction keeps them ([`Friction::lay_out_sliding`]): a slide at a held operating point
+/// makes them once, not at every step and every output.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SlidingSlots {
+    /// The bits of what they were made for: the state count, the limits and each
+    /// direction's relaxation rate (all zero: not made yet).
+    made_for: [u64; 1 + 2 * Direction::COUNT],
+    layout: Layout,
+    slots: [Slot; Group::COUNT * MAX_BRANCHES],
+    count: usize,
+}
+
+impl Friction {
+    /// Makes [`Friction::sliding_slots`] for a step of `system` at `limits`, unless they
+    /// were made for the same.
+    fn lay_out_sliding(&mut self, system: &StateSpace, limits: &Limits) {
+        let mut made_for = [0; 1 + 2 * Direction::COUNT];
+        made_for[0] = system.states as u64;
+        for (d, element) in self.elements.iter().enumerate() {
+            made_for[1 + d] = limits.0[d].to_bits();
+            if let Some(element) = element {
+                made_for[1 + Direction::COUNT + d] = system.a[(element.state, element.state)].to_bits();
+            }
+        }
+        if made_for != self.sliding_slots.made_for {
+            self.sliding_slots.made_for = made_for;
+            self.sliding_slots.layout = Layout::new(self, system.states);
+            self.fill_sliding_slots(system, limits);
+        }
+    }
+
+    /// The slots of [`Friction::lay_out_sliding`], written where they are kept.
+    fn fill_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
+        let groups = Group::ALL.map(|g| self.group_members[g as usize].contains(&true));
+        let laid_out = &mut self.sliding_slots;
+        laid_out.count = 0;
+        for group in Group::ALL.into_iter().filter(|&g| groups[g as usize]) {
+            for (i, branch) in self.branches.iter().enumerate() {
+                let slot = &mut laid_out.slots[laid_out.count];
+                *slot = Slot {
+                    group: group as usize,
+                    branch: i,
+                    ..Slot::default()
+                };
+                for &direction in group.directions() {
+                    let d = direction as usize;
+                    let Some(element) = self.elements[d].filter(|_| limits.0[d] > 0.0) else {
+                        continue;
+                    };
+                    let m = slot.law.count;
+                    slot.entries[m] = laid_out.layout.branch_entry(d, i).expect("a present element");
+                    slot.states[m] = element.state;
+                    slot.relaxation[m] = system.a[(element.state, element.state)];
+                    slot.law = slot.law.with_member(
+                        direction,
+                        branch.stiffness_fraction * element.stiffness,
+                        branch.stiffness_fraction * element.damping,
+                        branch.limit_fraction * limits.0[d],
+                    );
+                }
+                if slot.law.count > 0 {
+                    laid_out.count += 1;
+                }
+            }
+        }
+    }
+}
+
 /// The coupled system of one step: the model at its operating point with held or ramped
 /// driving inputs, and its branches at the step's limits.
 pub struct SlidingStep<'a> {
@@ -258,13 +361,9 @@ pub struct SlidingStep<'a> {
     pub input_rates: DrivingVector,
     /// The deflection scale of the error tolerance ([`SlidingStep::deflection_scale`]).
     scale: f64,
-    layout: Layout,
-    /// Each group and branch with a member (a present direction with a limit), with its
-    /// constants filled in: what stays fixed over the step. A direction with a zero limit
-    /// is left out: its branch deflections stay at zero ([`SlidingStep::prepare`] puts
-    /// them there).
-    slots: [Slot; Group::COUNT * MAX_BRANCHES],
-    slot_count: usize,
+    layout: &'a Layout,
+    /// Each group and branch with a member ([`SlidingSlots`]).
+    slots: &'a [Slot],
     /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
@@ -279,45 +378,18 @@ pub struct SlidingStep<'a> {
 pub struct NotConverged;
 
 impl<'a> SlidingStep<'a> {
+    /// The step's branches are laid out in `friction`'s [`SlidingSlots`], made anew only
+    /// where the limits or the relaxation rates changed since its last sliding step.
     pub fn new(
         system: &'a StateSpace,
-        friction: &'a Friction,
+        friction: &'a mut Friction,
         limits: Limits,
         (inputs, input_rates): (DrivingVector, DrivingVector),
         start_scale: f64,
     ) -> Self {
-        let layout = Layout::new(friction, system.states);
-        let mut slots = [Slot::default(); Group::COUNT * MAX_BRANCHES];
-        let mut slot_count = 0;
-        for group in friction.groups() {
-            for (i, branch) in friction.branches.iter().enumerate() {
-                let mut slot = Slot {
-                    group: group as usize,
-                    branch: i,
-                    ..Slot::default()
-                };
-                for &direction in group.directions() {
-                    let d = direction as usize;
-                    let Some(element) = friction.elements[d].filter(|_| limits.0[d] > 0.0) else {
-                        continue;
-                    };
-                    let m = slot.law.count;
-                    slot.entries[m] = layout.branch_entry(d, i).expect("a present element");
-                    slot.states[m] = element.state;
-                    slot.relaxation[m] = system.a[(element.state, element.state)];
-                    slot.law = slot.law.with_member(
-                        direction,
-                        branch.stiffness_fraction * element.stiffness,
-                        branch.stiffness_fraction * element.damping,
-                        branch.limit_fraction * limits.0[d],
-                    );
-                }
-                if slot.law.count > 0 {
-                    slots[slot_count] = slot;
-                    slot_count += 1;
-                }
-            }
-        }
+        friction.lay_out_sliding(system, &limits);
+        let friction: &'a Friction = friction;
+        let laid_out = &friction.sliding_slots;
         Self {
             system,
             friction,
@@ -325,9 +397,8 @@ impl<'a> SlidingStep<'a> {
             inputs,
             input_rates,
             scale: Self::deflection_scale(friction, &limits, start_scale),
-            layout,
-            slots,
-            slot_count,
+            layout: &laid_out.layout,
+            slots: &laid_out.slots[..laid_out.count],
             stiff: Cell::new(false),
             start_sliding_rate: Cell::new(0.0),
         }
@@ -338,8 +409,8 @@ impl<'a> SlidingStep<'a> {
         self.layout.size
     }
 
-    fn slots(&self) -> &[Slot] {
-        &self.slots[..self.slot_count]
+    fn slots(&self) -> &'a [Slot] {
+        self.slots
     }
 
     /// A slot's group input at deflections `z`, with the model's states `x` and their
