@@ -227,10 +227,18 @@ impl Friction {
     }
 
     /// The groups this model has, each with whether its elements are damped.
-    pub fn groups(&self) -> impl Iterator<Item = Group> + '_ {
+    pub fn groups(&self) -> impl Iterator<Item = Group> + use<> {
+        Self::groups_of(&self.group_members)
+    }
+
+    /// The groups that have a member in `group_members` ([`Friction::group_members`]).
+    fn groups_of(
+        group_members: &[[bool; Direction::COUNT]; Group::COUNT],
+    ) -> impl Iterator<Item = Group> + use<> {
+        let members = *group_members;
         Group::ALL
             .into_iter()
-            .filter(|&g| self.group_members[g as usize].contains(&true))
+            .filter(move |&g| members[g as usize].contains(&true))
     }
 
     /// Puts every branch at its element's state (at rest, or after states were set from

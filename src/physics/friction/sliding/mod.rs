@@ -206,15 +206,15 @@ impl Layout {
     }
 
     /// By entry, the model state it makes and its weight there: 1 for a free state, `w_i`
-    /// for a branch deflection (the columns of [`Layout::model_states`] as a matrix).
+    /// for a branch deflection (the columns of [`Layout::model_states`] as a matrix, read
+    /// from its rows: a weight of zero is no entry of that state).
     fn made_states(&self) -> [(usize, f64); SIZE] {
         let mut made = [(0, 0.0); SIZE];
-        for j in 0..self.free_count {
-            made[j] = (self.free[j], 1.0);
-        }
-        for e in self.elements() {
-            for i in 0..self.branches {
-                made[e.first + i] = (e.state, self.weights[i]);
+        for (state, sum) in self.sums.iter().enumerate() {
+            for (i, &weight) in sum.weights.iter().enumerate() {
+                if weight != 0.0 {
+                    made[sum.first + i] = (state, weight);
+                }
             }
         }
         made
@@ -307,19 +307,23 @@ impl Friction {
                 made_for[1 + Direction::COUNT + d] = system.a[(element.state, element.state)].to_bits();
             }
         }
-        if made_for != self.sliding_slots.made_for {
-            self.sliding_slots.made_for = made_for;
-            self.sliding_slots.layout = Layout::new(self, system.states);
-            self.fill_sliding_slots(system, limits);
+        if made_for == self.sliding_slots.made_for {
+            return;
         }
+        // The entries depend on the model alone: laid out at the first sliding step.
+        if made_for[0] != self.sliding_slots.made_for[0] {
+            self.sliding_slots.layout = Layout::new(self, system.states);
+        }
+        self.sliding_slots.made_for = made_for;
+        self.fill_sliding_slots(system, limits);
     }
 
     /// The slots of [`Friction::lay_out_sliding`], written where they are kept.
     fn fill_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
-        let groups = Group::ALL.map(|g| self.group_members[g as usize].contains(&true));
+        let groups = Self::groups_of(&self.group_members);
         let laid_out = &mut self.sliding_slots;
         laid_out.count = 0;
-        for group in Group::ALL.into_iter().filter(|&g| groups[g as usize]) {
+        for group in groups {
             for (i, branch) in self.branches.iter().enumerate() {
                 let slot = &mut laid_out.slots[laid_out.count];
                 *slot = Slot {
