@@ -137,20 +137,42 @@ impl SlidingStep<'_> {
                 factored.solve(&scaled_rates)
             })
         } else {
-            let mut matrix = jacobian.implicit_matrix::<DENSE>(s);
-            let factors = lu::Factors::new(&mut matrix, size)?;
-            self.stepped_row(t, z, start, length, n, modes, |scaled_rates| {
-                let mut short = [0.0; DENSE];
-                short[..size].copy_from_slice(&scaled_rates[..size]);
-                let mut solution = [0.0; SIZE];
-                solution[..size].copy_from_slice(&factors.solve(short)[..size]);
-                solution
-            })
+            // In arrays as large as the entries need: the matrix is made, factored and
+            // solved with in its own size, not in the largest one's.
+            let piece = (t, z, start, length, n, modes);
+            match size {
+                0..=2 => self.dense_row::<2>(piece, jacobian, s)?,
+                3 => self.dense_row::<3>(piece, jacobian, s)?,
+                4 => self.dense_row::<4>(piece, jacobian, s)?,
+                _ => self.dense_row::<DENSE>(piece, jacobian, s)?,
+            }
         };
         row.0[..jacobian.size]
             .iter()
             .all(|v| v.is_finite())
             .then_some(row)
+    }
+}
+
+/// A row's piece: its start time and state, start rates and event values, length, step
+/// count and modes.
+type Piece<'p> = (f64, &'p Vector, (&'p Vector, &'p Events), f64, usize, &'p Modes);
+
+impl SlidingStep<'_> {
+    /// [`SlidingStep::implicit_row`] with `I - s J` eliminated whole, in `N`x`N` arrays
+    /// (`N` at least the entries in use); `None` if it is singular.
+    fn dense_row<const N: usize>(&self, piece: Piece, jacobian: &Jacobian, s: f64) -> Option<Row> {
+        let (t, z, start, length, n, modes) = piece;
+        let size = jacobian.size.min(N);
+        let mut matrix = jacobian.implicit_matrix::<N>(s);
+        let factors = lu::Factors::new(&mut matrix, size)?;
+        Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| {
+            let mut short = [0.0; N];
+            short[..size].copy_from_slice(&scaled_rates[..size]);
+            let mut solution = [0.0; SIZE];
+            solution[..size].copy_from_slice(&factors.solve(short)[..size]);
+            solution
+        }))
     }
 }
 

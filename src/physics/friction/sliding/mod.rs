@@ -40,7 +40,7 @@ use super::group::{
     GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
 };
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
-use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
+use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector, by_state_count};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 
 /// Room for the coupled vector: the model's states, then the branch deflections.
@@ -106,6 +106,8 @@ struct Layout {
     size: usize,
     /// By model state, the entries it is the weighted sum of ([`Layout::model_states`]).
     sums: [StateSum; MAX_STATES],
+    /// The model's states.
+    states: usize,
 }
 
 /// A model state as a sum of entries of the coupled vector: from `first` on, with
@@ -131,6 +133,7 @@ impl Layout {
     fn new(friction: &Friction, states: usize) -> Self {
         let mut layout = Layout {
             branches: friction.branches.len(),
+            states,
             ..Layout::default()
         };
         for (i, branch) in friction.branches.iter().enumerate() {
@@ -187,6 +190,13 @@ impl Layout {
     /// the product with the state matrix reads them two at a time, at once.
     #[inline]
     fn model_states(&self, z: &Vector) -> StateVector {
+        by_state_count!(self.states, N => self.model_states_for::<N>(z))
+    }
+
+    /// [`Layout::model_states`] of a model of `N` states: the pairs that hold them, the
+    /// states past them left zero.
+    #[inline]
+    fn model_states_for<const N: usize>(&self, z: &Vector) -> StateVector {
         let mut x = StateVector::zeros();
         let sum = |s: &StateSum| {
             let mut sum = 0.0;
@@ -195,10 +205,12 @@ impl Layout {
             }
             sum
         };
+        let pairs = N.div_ceil(2);
         for (pair, sums) in x
             .as_mut_slice()
             .chunks_exact_mut(2)
             .zip(self.sums.chunks_exact(2))
+            .take(pairs)
         {
             pair.copy_from_slice(&[sum(&sums[0]), sum(&sums[1])]);
         }
