@@ -36,10 +36,8 @@ pub(super) const IMPLICIT_SEQUENCE: [usize; 10] = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10
 
 /// The Jacobian of a piece's right-hand side as `D + P M` (see the module's doc).
 pub(super) struct Jacobian<'s> {
-    size: usize,
-    /// The model's states in use.
-    states: usize,
-    /// Where the entries sit: `M` is [`Layout::model_states`].
+    /// Where the entries sit (how many, and the model's states they make): `M` is
+    /// [`Layout::model_states`].
     layout: &'s Layout,
     /// `M` by column ([`Layout::made_states`]): the model state an entry makes, and its
     /// weight there.
@@ -71,10 +69,8 @@ impl SlidingStep<'_> {
     /// evaluation of the whole system per entry.)
     pub(super) fn jacobian(&self, t: f64, z: &Vector, rates: &Vector, modes: &Modes) -> Jacobian<'_> {
         let (layout, a) = (&self.layout, &self.system.a);
-        let states = self.system.states;
+        let states = layout.states;
         let mut jacobian = Jacobian {
-            size: self.size(),
-            states,
             layout,
             makes: layout.made_states(),
             by_state: [[0.0; MAX_STATES]; SIZE],
@@ -107,7 +103,7 @@ impl SlidingStep<'_> {
                 }
             }
         }
-        for c in 0..jacobian.size {
+        for c in 0..jacobian.size() {
             let (state, weight) = jacobian.makes[c];
             for l in 0..states {
                 jacobian.made_by_state[state][l] += weight * jacobian.by_state[c][l];
@@ -130,7 +126,7 @@ impl SlidingStep<'_> {
         n: usize,
         modes: &Modes,
     ) -> Option<Row> {
-        let (s, size) = (length / n as f64, jacobian.size);
+        let (s, size) = (length / n as f64, jacobian.size());
         let row = if jacobian.worth_structure() {
             let factored = jacobian.factor(s)?;
             self.stepped_row(t, z, start, length, n, modes, |scaled_rates| {
@@ -147,10 +143,7 @@ impl SlidingStep<'_> {
                 _ => self.dense_row::<DENSE>(piece, jacobian, s)?,
             }
         };
-        row.0[..jacobian.size]
-            .iter()
-            .all(|v| v.is_finite())
-            .then_some(row)
+        row.0[..size].iter().all(|v| v.is_finite()).then_some(row)
     }
 }
 
@@ -163,7 +156,7 @@ impl SlidingStep<'_> {
     /// (`N` at least the entries in use); `None` if it is singular.
     fn dense_row<const N: usize>(&self, piece: Piece, jacobian: &Jacobian, s: f64) -> Option<Row> {
         let (t, z, start, length, n, modes) = piece;
-        let size = jacobian.size.min(N);
+        let size = jacobian.size().min(N);
         let mut matrix = jacobian.implicit_matrix::<N>(s);
         let factors = lu::Factors::new(&mut matrix, size)?;
         Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| {
@@ -177,18 +170,23 @@ impl SlidingStep<'_> {
 }
 
 impl Jacobian<'_> {
+    /// The entries in use.
+    fn size(&self) -> usize {
+        self.layout.size
+    }
+
     /// Whether the structured solve is the cheaper: where the entries are more than twice
     /// the model's states (DDT's and SecondOrder's Brush, whose branches multiply the
     /// entries). Otherwise `I - s J` is small and eliminated whole.
     fn worth_structure(&self) -> bool {
-        self.size > DENSE.min(2 * self.states)
+        self.size() > DENSE.min(2 * self.layout.states)
     }
 
     /// `I - s J` as one matrix (its first `size` rows and columns), for a Jacobian not
     /// [`Jacobian::worth_structure`].
     fn implicit_matrix<const N: usize>(&self, s: f64) -> [[f64; N]; N] {
         let mut matrix = [[0.0; N]; N];
-        let size = self.size.min(N);
+        let size = self.size().min(N);
         for r in 0..size {
             for c in 0..size {
                 let (state, weight) = self.makes[c];
@@ -209,7 +207,7 @@ impl Jacobian<'_> {
 
     /// `I - s J` made ready to solve with; `None` if a block of `B` or `C` is singular.
     fn factor(&self, s: f64) -> Option<Factored<'_>> {
-        by_state_count!(self.states, N => self.factor_for::<N>(s))
+        by_state_count!(self.layout.states, N => self.factor_for::<N>(s))
     }
 
     /// [`Jacobian::factor`] for a model of `N` states: loops of a known length.
@@ -282,7 +280,7 @@ impl Factored<'_> {
     /// `C c = M B^-1 r`.
     fn solve(&self, r: &Vector) -> Vector {
         let jacobian = self.jacobian;
-        let (size, states) = (jacobian.size, jacobian.states);
+        let (size, states) = (jacobian.size(), jacobian.layout.states);
         let mut w = *r;
         self.apply_inverse_blocks(&mut w);
         let made = jacobian.layout.model_states(&w);

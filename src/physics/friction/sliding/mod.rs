@@ -106,7 +106,7 @@ struct Layout {
     size: usize,
     /// By model state, the entries it is the weighted sum of ([`Layout::model_states`]).
     sums: [StateSum; MAX_STATES],
-    /// The model's states.
+    /// The model's states (zero: not laid out yet).
     states: usize,
 }
 
@@ -299,9 +299,9 @@ impl Slot {
 /// makes them once, not at every step and every output.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SlidingSlots {
-    /// The bits of what they were made for: the state count, the limits and each
-    /// direction's relaxation rate (all zero: not made yet).
-    made_for: [u64; 1 + 2 * Direction::COUNT],
+    /// The bits of the limits and each direction's relaxation rate they were made for
+    /// (for a layout of the model's states: [`Layout::states`], zero before the first).
+    made_for: [u64; 2 * Direction::COUNT],
     layout: Layout,
     slots: [Slot; Group::COUNT * MAX_BRANCHES],
     count: usize,
@@ -311,20 +311,18 @@ impl Friction {
     /// Makes [`Friction::sliding_slots`] for a step of `system` at `limits`, unless they
     /// were made for the same.
     fn lay_out_sliding(&mut self, system: &StateSpace, limits: &Limits) {
-        let mut made_for = [0; 1 + 2 * Direction::COUNT];
-        made_for[0] = system.states as u64;
+        let mut made_for = [0; 2 * Direction::COUNT];
         for (d, element) in self.elements.iter().enumerate() {
-            made_for[1 + d] = limits.0[d].to_bits();
+            made_for[d] = limits.0[d].to_bits();
             if let Some(element) = element {
-                made_for[1 + Direction::COUNT + d] = system.a[(element.state, element.state)].to_bits();
+                made_for[Direction::COUNT + d] = system.a[(element.state, element.state)].to_bits();
             }
         }
-        if made_for == self.sliding_slots.made_for {
-            return;
-        }
         // The entries depend on the model alone: laid out at the first sliding step.
-        if made_for[0] != self.sliding_slots.made_for[0] {
+        if self.sliding_slots.layout.states != system.states {
             self.sliding_slots.layout = Layout::new(self, system.states);
+        } else if made_for == self.sliding_slots.made_for {
+            return;
         }
         self.sliding_slots.made_for = made_for;
         self.fill_sliding_slots(system, limits);
