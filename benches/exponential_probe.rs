@@ -1,0 +1,217 @@
+//! How far a sliding step is from its linearisation: the accuracy that exponential
+//! Rosenbrock steps over a whole 1 ms step would reach, measured on the tire itself.
+//!
+//! Each model is driven with the slide yardstick's inputs (`../shared/bench/host.c`: vx
+//! and Fz varying, 1 ms steps, Brush friction, muY = 0.01 "lateral", or muX = muY = 0.01
+//! "combined"). At every tenth step from 0.1 s to 2 s the step's start (states and modes
+//! as the step decides them) is taken, and its rates in those modes (the Model Exchange
+//! view of the tire, [`Tire::continuous_rates`]) are integrated over the step by:
+//!
+//! - a reference: classical Runge-Kutta with 4000 substeps (checked against 2000);
+//! - exponential Euler: `z + h phi1(hJ) f(z)`, one evaluation;
+//! - exprb32 (Hochbruck, Ostermann, Schweitzer 2009): two evaluations, third order;
+//! - exprb43: three evaluations, fourth order, with its embedded third-order solution,
+//!   whose difference is the error estimate a step would be controlled by.
+//!
+//! `J` is the Jacobian of the rates at the start (central differences: its error, near
+//! 1e-10 relative, enters a step as `h^2 dJ f`, below 1e-14 of the states here). A step
+//! whose modes change inside (the Co-Simulation step leaves the fixed-mode reference by
+//! more than 1e-11) is counted apart: there the event, not the method, decides.
+//! Errors are relative to the largest state.
+//!
+//! ```text
+//! cargo bench --bench exponential_probe
+//! ```
+
+use nalgebra::{DMatrix, DVector};
+use tirelag::physics::tire::hybrid::{CONTINUOUS_STATES, ContinuousStates};
+use tirelag::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters, Tire};
+
+const STEP: f64 = 1e-3;
+const REFERENCE_SUBSTEPS: usize = 4000;
+
+/// The slide yardstick's inputs at step `k` (vx, vy, steerRate, vsx, Fz).
+fn yardstick_inputs(k: usize) -> [f64; Input::COUNT] {
+    let t = k as f64 * STEP;
+    let vx = 10.0 + 0.001 * (k % 1000) as f64;
+    let load = 50000.0 * (1.0 + 0.02 * (2.0 * t).sin());
+    [vx, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), load]
+}
+
+/// `phi_1(X) .. phi_4(X)` from the exponential of the block matrix with `X` in its
+/// corner and identities above its diagonal (its top row of blocks is
+/// `e^X, phi_1(X), .., phi_4(X)`).
+fn phi_functions(x: &DMatrix<f64>) -> [DMatrix<f64>; 4] {
+    let n = x.nrows();
+    let mut block = DMatrix::<f64>::zeros(5 * n, 5 * n);
+    block.view_mut((0, 0), (n, n)).copy_from(x);
+    for k in 0..4 {
+        block
+            .view_mut((k * n, (k + 1) * n), (n, n))
+            .copy_from(&DMatrix::<f64>::identity(n, n));
+    }
+    let e = block.exp();
+    std::array::from_fn(|k| e.view((0, (k + 1) * n), (n, n)).into_owned())
+}
+
+/// The rates of the tire's continuous states at `z`, in its current modes and inputs.
+fn rates(tire: &mut Tire, z: &DVector<f64>) -> DVector<f64> {
+    let mut states: ContinuousStates = [0.0; CONTINUOUS_STATES];
+    states.copy_from_slice(z.as_slice());
+    tire.set_continuous_states(&states).expect("finite states");
+    DVector::from_column_slice(tire.continuous_rates())
+}
+
+fn runge_kutta(tire: &mut Tire, z0: &DVector<f64>, substeps: usize) -> DVector<f64> {
+    let s = STEP / substeps as f64;
+    let mut z = z0.clone();
+    for _ in 0..substeps {
+        let k1 = rates(tire, &z);
+        let k2 = rates(tire, &(&z + &k1 * (0.5 * s)));
+        let k3 = rates(tire, &(&z + &k2 * (0.5 * s)));
+        let k4 = rates(tire, &(&z + &k3 * s));
+        z += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (s / 6.0);
+    }
+    z
+}
+
+fn jacobian(tire: &mut Tire, z0: &DVector<f64>, scale: f64) -> DMatrix<f64> {
+    let n = z0.len();
+    let mut jacobian = DMatrix::<f64>::zeros(n, n);
+    for j in 0..n {
+        let delta = 1e-5 * z0[j].abs().max(1e-3 * scale);
+        let (mut up, mut down) = (z0.clone(), z0.clone());
+        up[j] += delta;
+        down[j] -= delta;
+        let column = (rates(tire, &up) - rates(tire, &down)) / (2.0 * delta);
+        jacobian.set_column(j, &column);
+    }
+    jacobian
+}
+
+/// The largest errors (relative to the largest state) over the probed steps.
+#[derive(Default)]
+struct Errors {
+    probed: usize,
+    with_events: usize,
+    euler: f64,
+    exprb32: f64,
+    exprb43: f64,
+    exprb43_estimate: f64,
+    reference: f64,
+    /// Terms of the Taylor series of `phi1(hJ) f` to rounding: the matrix-vector
+    /// products a step's phi-functions would take without scaling.
+    taylor_terms: usize,
+}
+
+fn probe(model: ModelKind, combined: bool) -> Errors {
+    let mut p = Parameters::default()
+        .with_model(model)
+        .with_friction(FrictionLaw::Brush);
+    p.set(Parameter::LateralFriction, 0.01).expect("valid");
+    if combined {
+        p.set(Parameter::LongitudinalFriction, 0.01).expect("valid");
+    }
+    let mut tire = Tire::new(p).expect("valid parameters");
+    let mut errors = Errors::default();
+    for k in 0..2000 {
+        tire.set_inputs(yardstick_inputs(k));
+        if k >= 100 && k % 10 == 0 {
+            tire.update_modes();
+            let start = tire.continuous_states();
+            let sliders = *tire.sliders().expect("friction");
+            probe_step(&mut tire, &mut errors);
+            tire.set_sliders(&sliders).expect("as it was");
+            tire.set_continuous_states(&start).expect("as it was");
+        }
+        tire.step(STEP).expect("a valid step");
+    }
+    errors
+}
+
+fn probe_step(tire: &mut Tire, errors: &mut Errors) {
+    let z0 = DVector::from_column_slice(&tire.continuous_states());
+    let reference = runge_kutta(tire, &z0, REFERENCE_SUBSTEPS);
+    let coarser = runge_kutta(tire, &z0, REFERENCE_SUBSTEPS / 2);
+    let scale = z0.amax().max(reference.amax());
+    let error = |z: &DVector<f64>| (z - &reference).amax() / scale;
+
+    // The Co-Simulation step from the same start.
+    let sliders = *tire.sliders().expect("friction");
+    let mut states: ContinuousStates = [0.0; CONTINUOUS_STATES];
+    states.copy_from_slice(z0.as_slice());
+    tire.set_continuous_states(&states).expect("finite");
+    tire.step(STEP).expect("a valid step");
+    let stepped = DVector::from_column_slice(&tire.continuous_states());
+    tire.set_sliders(&sliders).expect("as it was");
+    tire.set_continuous_states(&states).expect("as it was");
+    errors.probed += 1;
+    if error(&stepped) > 1e-11 {
+        errors.with_events += 1;
+        return;
+    }
+
+    let f0 = rates(tire, &z0);
+    let jacobian = jacobian(tire, &z0, scale);
+    let [phi1, _, phi3, phi4] = phi_functions(&(&jacobian * STEP));
+    let [half_phi1, ..] = phi_functions(&(&jacobian * (0.5 * STEP)));
+    // The nonlinear remainder's change from the start: `g(u) - g(z0)`, `g = f - J z`.
+    let mut remainder = |u: &DVector<f64>| rates(tire, u) - &f0 - &jacobian * (u - &z0);
+
+    let euler = &z0 + &phi1 * &f0 * STEP;
+    let d_euler = remainder(&euler);
+    let exprb32 = &euler + &phi3 * &d_euler * (2.0 * STEP);
+
+    let middle = &z0 + &half_phi1 * &f0 * (0.5 * STEP);
+    let d2 = remainder(&middle);
+    let end = &z0 + &phi1 * (&f0 + &d2) * STEP;
+    let d3 = remainder(&end);
+    let exprb43 =
+        &euler + (&phi3 * 16.0 - &phi4 * 48.0) * &d2 * STEP + (&phi3 * -2.0 + &phi4 * 12.0) * &d3 * STEP;
+    let embedded = &euler + &phi3 * (&d2 * 16.0 - &d3 * 2.0) * STEP;
+
+    errors.euler = errors.euler.max(error(&euler));
+    errors.exprb32 = errors.exprb32.max(error(&exprb32));
+    errors.exprb43 = errors.exprb43.max(error(&exprb43));
+    errors.exprb43_estimate = errors.exprb43_estimate.max((&exprb43 - &embedded).amax() / scale);
+    errors.reference = errors.reference.max(error(&coarser));
+    errors.taylor_terms = errors.taylor_terms.max(taylor_terms(&(&jacobian * STEP), &f0));
+}
+
+/// The terms of `sum X^j v / (j + 1)!` until one is below rounding of the sum.
+fn taylor_terms(x: &DMatrix<f64>, v: &DVector<f64>) -> usize {
+    let (mut term, mut sum) = (v.clone(), v.clone());
+    for j in 1..200 {
+        term = x * term / (j + 1) as f64;
+        sum += &term;
+        if term.amax() <= 1e-17 * sum.amax() {
+            return j;
+        }
+    }
+    200
+}
+
+fn main() {
+    println!(
+        "{:<22} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7}",
+        "model, case", "steps", "events", "euler", "exprb32", "exprb43", "estimate", "reference", "terms"
+    );
+    for model in ModelKind::ALL {
+        for combined in [false, true] {
+            let e = probe(model, combined);
+            let case = if combined { "combined" } else { "lateral" };
+            println!(
+                "{:<22} {:>7} {:>7} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>7}",
+                format!("{model:?} {case}"),
+                e.probed,
+                e.with_events,
+                e.euler,
+                e.exprb32,
+                e.exprb43,
+                e.exprb43_estimate,
+                e.reference,
+                e.taylor_terms
+            );
+        }
+    }
+}
