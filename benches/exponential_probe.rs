@@ -3,7 +3,8 @@
 //!
 //! Each model is driven with the slide yardstick's inputs (`../shared/bench/host.c`: vx
 //! and Fz varying, 1 ms steps, Brush friction, muY = 0.01 "lateral", or muX = muY = 0.01
-//! "combined"). At every tenth step from 0.1 s to 2 s the step's start (states and modes
+//! "combined"). At every tenth step from 0.1 s to 2 s (every hundredth under
+//! `cargo test --benches`, a smoke run) the step's start (states and modes
 //! as the step decides them) is taken, and its rates in those modes (the Model Exchange
 //! view of the tire, [`Tire::continuous_rates`]) are integrated over the step by:
 //!
@@ -25,18 +26,14 @@
 
 use nalgebra::{DMatrix, DVector};
 use tirelag::physics::tire::hybrid::{CONTINUOUS_STATES, ContinuousStates};
-use tirelag::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters, Tire};
+use tirelag::physics::{FrictionLaw, ModelKind, Parameter, Parameters, Tire};
+
+#[path = "../tests/support/mod.rs"]
+mod support;
 
 const STEP: f64 = 1e-3;
+const STEPS: usize = 2000;
 const REFERENCE_SUBSTEPS: usize = 4000;
-
-/// The slide yardstick's inputs at step `k` (vx, vy, steerRate, vsx, Fz).
-fn yardstick_inputs(k: usize) -> [f64; Input::COUNT] {
-    let t = k as f64 * STEP;
-    let vx = 10.0 + 0.001 * (k % 1000) as f64;
-    let load = 50000.0 * (1.0 + 0.02 * (2.0 * t).sin());
-    [vx, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), load]
-}
 
 /// `phi_1(X) .. phi_4(X)` from the exponential of the block matrix with `X` in its
 /// corner and identities above its diagonal (its top row of blocks is
@@ -54,11 +51,16 @@ fn phi_functions(x: &DMatrix<f64>) -> [DMatrix<f64>; 4] {
     std::array::from_fn(|k| e.view((0, (k + 1) * n), (n, n)).into_owned())
 }
 
-/// The rates of the tire's continuous states at `z`, in its current modes and inputs.
-fn rates(tire: &mut Tire, z: &DVector<f64>) -> DVector<f64> {
+/// Puts the tire's continuous states at `z`; its modes stay.
+fn put(tire: &mut Tire, z: &DVector<f64>) {
     let mut states: ContinuousStates = [0.0; CONTINUOUS_STATES];
     states.copy_from_slice(z.as_slice());
     tire.set_continuous_states(&states).expect("finite states");
+}
+
+/// The rates of the tire's continuous states at `z`, in its current modes and inputs.
+fn rates(tire: &mut Tire, z: &DVector<f64>) -> DVector<f64> {
+    put(tire, z);
     DVector::from_column_slice(tire.continuous_rates())
 }
 
@@ -114,9 +116,17 @@ fn probe(model: ModelKind, combined: bool) -> Errors {
     }
     let mut tire = Tire::new(p).expect("valid parameters");
     let mut errors = Errors::default();
-    for k in 0..2000 {
-        tire.set_inputs(yardstick_inputs(k));
-        if k >= 100 && k % 10 == 0 {
+    let every = if std::env::args().any(|a| a == "--bench") {
+        10
+    } else {
+        100
+    };
+    for (k, inputs) in support::yardstick_inputs(true, STEPS, STEP)
+        .into_iter()
+        .enumerate()
+    {
+        tire.set_inputs(inputs);
+        if k >= 100 && k % every == 0 {
             tire.update_modes();
             let start = tire.continuous_states();
             let sliders = *tire.sliders().expect("friction");
@@ -129,27 +139,14 @@ fn probe(model: ModelKind, combined: bool) -> Errors {
     errors
 }
 
+/// The methods' errors at the tire's current start; the tire's states and modes are left
+/// wherever the probe took them (the caller puts them back).
 fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     let z0 = DVector::from_column_slice(&tire.continuous_states());
     let reference = runge_kutta(tire, &z0, REFERENCE_SUBSTEPS);
     let coarser = runge_kutta(tire, &z0, REFERENCE_SUBSTEPS / 2);
     let scale = z0.amax().max(reference.amax());
     let error = |z: &DVector<f64>| (z - &reference).amax() / scale;
-
-    // The Co-Simulation step from the same start.
-    let sliders = *tire.sliders().expect("friction");
-    let mut states: ContinuousStates = [0.0; CONTINUOUS_STATES];
-    states.copy_from_slice(z0.as_slice());
-    tire.set_continuous_states(&states).expect("finite");
-    tire.step(STEP).expect("a valid step");
-    let stepped = DVector::from_column_slice(&tire.continuous_states());
-    tire.set_sliders(&sliders).expect("as it was");
-    tire.set_continuous_states(&states).expect("as it was");
-    errors.probed += 1;
-    if error(&stepped) > 1e-11 {
-        errors.with_events += 1;
-        return;
-    }
 
     let f0 = rates(tire, &z0);
     let jacobian = jacobian(tire, &z0, scale);
@@ -170,6 +167,15 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
         &euler + (&phi3 * 16.0 - &phi4 * 48.0) * &d2 * STEP + (&phi3 * -2.0 + &phi4 * 12.0) * &d3 * STEP;
     let embedded = &euler + &phi3 * (&d2 * 16.0 - &d3 * 2.0) * STEP;
 
+    // The Co-Simulation step from the same start, in the same modes: where it leaves the
+    // fixed-mode reference, a mode changed inside the step.
+    put(tire, &z0);
+    tire.step(STEP).expect("a valid step");
+    errors.probed += 1;
+    if error(&DVector::from_column_slice(&tire.continuous_states())) > 1e-11 {
+        errors.with_events += 1;
+        return;
+    }
     errors.euler = errors.euler.max(error(&euler));
     errors.exprb32 = errors.exprb32.max(error(&exprb32));
     errors.exprb43 = errors.exprb43.max(error(&exprb43));
