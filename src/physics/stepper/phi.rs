@@ -26,8 +26,9 @@ const MAX_DEGREE: usize = 16;
 /// an odd degree, up to MAX_DEGREE + 1).
 const INVERSE_FACTORIAL: [f64; MAX_DEGREE + 4] = inverse_factorials();
 
-const fn inverse_factorials() -> [f64; MAX_DEGREE + 4] {
-    let mut table = [1.0; MAX_DEGREE + 4];
+/// `1/k!` for `k = 0..N`.
+pub const fn inverse_factorials<const N: usize>() -> [f64; N] {
+    let mut table = [1.0; N];
     let mut k = 1;
     while k < table.len() {
         table[k] = table[k - 1] / k as f64;

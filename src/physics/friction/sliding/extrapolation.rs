@@ -1,12 +1,26 @@
-//! Extrapolation of one substep within a piece, to a relative 1e-12: Gragg-Bulirsch-Stoer
+//! One substep within a piece, to a relative 1e-12: where no event is near, by exprb43
+//! ([`super::exponential`]); otherwise by extrapolation: Gragg-Bulirsch-Stoer
 //! (the modified midpoint rule with 2, 4, ..., 16 steps, polynomial extrapolation in h^2),
 //! or for a stiff step the linearly implicit rows of [`super::implicit`] (extrapolation
 //! in h). The midpoint samples also show where a limit may be touched inside the
 //! substep ([`super::events`]).
 
 use super::events::{Interior, InteriorSearch};
+use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use crate::physics::state_space::DrivingVector;
+
+/// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Toward {
+    /// No event predicted within it.
+    NoEvent,
+    /// It ends at a predicted event.
+    Event,
+    /// It ends at a predicted event within a small fraction of the longest substep.
+    NearEvent,
+}
 
 /// Midpoint substep counts of the extrapolation rows.
 const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
@@ -17,9 +31,9 @@ const SHORT_SEQUENCE: [usize; 4] = [1, 2, 3, 4];
 /// the tolerance, the sample closest to it), and its sample spacing.
 pub(super) type Row = (Vector, Option<Interior>, Option<Interior>, f64);
 /// Relative accuracy of each substep.
-const TOLERANCE: f64 = 1e-12;
+pub(super) const TOLERANCE: f64 = 1e-12;
 /// A few rounding units: the error floor relative to the largest entry.
-const ROUNDING: f64 = 16.0 * f64::EPSILON;
+pub(super) const ROUNDING: f64 = 16.0 * f64::EPSILON;
 
 impl SlidingStep<'_> {
     /// The modified midpoint rule with `n` substeps over `[t, t + length]`. Also gives the
@@ -64,19 +78,35 @@ impl SlidingStep<'_> {
         (out, interior, closest, h)
     }
 
-    /// The end of an extrapolated substep, without looking inside it for events.
+    /// The end of a substep, without looking inside it for events: exponential where that
+    /// is accurate ([`SlidingStep::exponential_suited`]), else extrapolated.
     pub(super) fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes) -> Option<Vector> {
         let (rates, events) = self.rates(t, z, modes);
+        if self.exponential_suited()
+            && let Exponential::Taken(end, _) =
+                self.exponential_substep(t, z, (&rates, &events), length, modes, false)
+        {
+            return Some(end);
+        }
         self.substep_by(t, z, (&rates, &events), length, modes, false)
             .map(|(z, _, _, _)| z)
     }
 
-    /// An extrapolated substep from `z` with its `start` rates and event values, with
-    /// where a limit may have been touched inside it and the spacing of the samples that
-    /// found it. A `short` one (to a predicted event, far shorter than the motion's time
-    /// scales) is tried by explicit Euler extrapolation first: rows of 1, 2, 3 and 4 Euler
-    /// steps cost 0, 1, 2 and 3 evaluations, and usually agree at the third, where the
-    /// midpoint rows take six; those follow if four Euler rows do not agree.
+    /// A substep from `z` with its `start` rates and event values, by what lies ahead
+    /// ([`Toward`]): its end, the factor by which the next substep may grow, where a limit
+    /// may have been touched inside it and the spacing of the samples that found it; or
+    /// the factor by which it must be shortened.
+    ///
+    /// - No predicted event: by exprb43 ([`super::exponential`]) where it is suited
+    ///   ([`SlidingStep::exponential_suited`]) and no limit is near; otherwise
+    ///   extrapolated. One that comes back too long leaves the rest of the step to the
+    ///   extrapolation.
+    /// - A predicted event: extrapolated, so that its samples and accurate intermediate
+    ///   values locate it.
+    /// - A near one (far shorter than the motion's time scales): by explicit Euler
+    ///   extrapolation first: rows of 1, 2, 3 and 4 Euler steps cost 0, 1, 2 and 3
+    ///   evaluations, and usually agree at the third, where the midpoint rows take six;
+    ///   those follow if four Euler rows do not agree.
     pub(super) fn substep(
         &self,
         t: f64,
@@ -84,13 +114,42 @@ impl SlidingStep<'_> {
         start: (&Vector, &Events),
         length: f64,
         modes: &Modes,
-        short: bool,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
-        let euler = |n| Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates));
-        (short && !self.stiff.get())
-            .then(|| self.extrapolate(z, &SHORT_SEQUENCE, 1, true, euler))
-            .flatten()
-            .or_else(|| self.substep_by(t, z, start, length, modes, true))
+        toward: Toward,
+    ) -> Result<(Vector, f64, Option<Interior>, f64), f64> {
+        const SHORTER: f64 = 0.25;
+        if self.stiff.get() {
+            return self.substep_by(t, z, start, length, modes, true).ok_or(SHORTER);
+        }
+        match toward {
+            Toward::NoEvent if self.exponential_suited() => {
+                match self.exponential_substep(t, z, start, length, modes, true) {
+                    Exponential::Taken(end, growth) => return Ok((end, growth, None, 0.5 * length)),
+                    Exponential::TooLong => self.exponential_declined.set(true),
+                    Exponential::NotSuited => {}
+                }
+            }
+            Toward::NearEvent => {
+                let euler =
+                    |n| Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates));
+                if let Some(taken) = self.extrapolate(z, &SHORT_SEQUENCE, 1, true, euler) {
+                    return Ok(taken);
+                }
+            }
+            _ => {}
+        }
+        // Extrapolated, it stays below the longest substep (an exponential one need not).
+        let longest = self.longest_substep();
+        if length > longest {
+            return Err(longest / length);
+        }
+        self.substep_by(t, z, start, length, modes, true).ok_or(SHORTER)
+    }
+
+    /// Whether a substep may be exponential: an explicit step (the linearly implicit one
+    /// takes a stiff slide, whose phi-series would be long) with held driving inputs,
+    /// none of whose exponential substeps came back too long.
+    pub(super) fn exponential_suited(&self) -> bool {
+        !self.stiff.get() && !self.exponential_declined.get() && self.input_rates == DrivingVector::zeros()
     }
 
     /// `n` steps of `s = length / n` over `[t, t + length]`, each moving the state by
@@ -151,7 +210,7 @@ impl SlidingStep<'_> {
     /// `None` if it did not reach the tolerance. Also returns the factor by which the next
     /// substep may grow, the first interior point where an event value was past the
     /// tolerance (from the finest row) when `look_inside`, and that row's sample spacing.
-    fn substep_by(
+    pub(super) fn substep_by(
         &self,
         t: f64,
         z: &Vector,

@@ -184,7 +184,7 @@ impl Jacobian<'_> {
 
     /// `I - s J` as one matrix (its first `size` rows and columns), for a Jacobian not
     /// [`Jacobian::worth_structure`].
-    fn implicit_matrix<const N: usize>(&self, s: f64) -> [[f64; N]; N] {
+    pub(super) fn implicit_matrix<const N: usize>(&self, s: f64) -> [[f64; N]; N] {
         let mut matrix = [[0.0; N]; N];
         let size = self.size().min(N);
         for r in 0..size {
@@ -322,12 +322,11 @@ impl Factored<'_> {
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{Modes, SIZE, SlidingStep};
-    use crate::physics::friction::{Friction, FrictionLaw, Group, Limits, MAX_BRANCHES, SliderState};
+    use super::super::{Modes, SIZE, SlidingStep, tire_at};
+    use crate::physics::friction::{FrictionLaw, Group, MAX_BRANCHES, SliderState};
     use crate::physics::lu;
     use crate::physics::state_space::{DrivingVector, StateVector};
-    use crate::physics::stepper::AffineSystem;
-    use crate::physics::{ModelKind, Parameter, Parameters, Tire};
+    use crate::physics::{ModelKind, Parameter, Parameters};
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(200))]
@@ -351,15 +350,8 @@ mod tests {
             let mut p = Parameters::default().with_model(model).with_friction(law);
             p.set(Parameter::LongitudinalFriction, 0.4).unwrap();
             let load = load_ratio * p.get(Parameter::NominalLoad);
-            let equations = p.model.equations();
-            let affine = AffineSystem::from_samples(|at| equations.system(&p, &at));
-            let mut friction =
-                Friction::new(law, equations.contact_elements(&p), &affine.state_coupling()).unwrap();
-            let system = Tire::new(p.clone()).unwrap().system_at(vx, load);
-            let limits = Limits::at(&p, load);
             // States and offsets of the order of the elastic travel.
-            let travel = limits.0.iter().copied().fold(0.0, f64::max)
-                / p.get(Parameter::CorneringStiffness);
+            let (system, mut friction, limits, travel) = tire_at(&p, vx, load);
             let mut x = StateVector::zeros();
             for k in 0..system.states.min(4) {
                 x[k] = signed(states[k], k) * travel;

@@ -2,10 +2,15 @@
 //! deflection integrated together, piece by piece between stick/slide events. (Where
 //! every branch moves on its own, [`super::separable`] takes the step branch by branch.)
 //!
-//! Within a piece every group keeps its mode, so the right-hand side is smooth; it is
-//! integrated by Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial
-//! extrapolation in h^2) to a relative 1e-12; a substep whose rows stop converging is
-//! shortened, not left to a row that agrees with its neighbour by chance. A step that
+//! Within a piece every group keeps its mode, so the right-hand side is smooth, and over
+//! a millisecond nearly linear. Where no event is near, a substep is an exponential
+//! Rosenbrock step (exprb43): the linear part exact, the small remainder to fourth
+//! order, three evaluations ([`exponential`]). Near an event, or where that step comes
+//! back too long (then for the rest of the step), it is integrated by
+//! Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial extrapolation
+//! in h^2), whose samples locate events; both to a relative 1e-12. A substep whose rows
+//! stop converging is shortened, not left to a row that agrees with its neighbour by
+//! chance. A step that
 //! explicit method cannot finish
 //! within a few hundred substeps (a stiff tire at a light load sliding on its ellipse
 //! turns its force within microseconds; a light load makes the tire's own relaxation
@@ -24,13 +29,15 @@
 //! The result is a function of the states, inputs and step size only (nothing is carried
 //! from one step to the next), so a restored FMU state continues bit-identically.
 //!
-//! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep;
+//! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep,
+//! and the extrapolated one; [`exponential`]: the exponential one;
 //! [`implicit`]: one substep of a stiff piece; [`events`]: where within a substep a group
 //! changes mode.
 
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
 mod events;
+mod exponential;
 mod extrapolation;
 mod implicit;
 
@@ -42,6 +49,7 @@ use super::group::{
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector, by_state_count};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
+use extrapolation::Toward;
 
 /// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
@@ -382,6 +390,10 @@ pub struct SlidingStep<'a> {
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
     stiff: Cell<bool>,
+    /// Whether an exponential substep of this step came back too long: the piece is
+    /// further from linear than its fourth order takes in a few substeps, and the
+    /// extrapolation (whose order grows as it needs) takes the rest of the step.
+    exponential_declined: Cell<bool>,
     /// How fast the groups found sliding at the start move their forces, 1/s
     /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
     start_sliding_rate: Cell<f64>,
@@ -414,6 +426,7 @@ impl<'a> SlidingStep<'a> {
             layout: &laid_out.layout,
             slots: &laid_out.slots[..laid_out.count],
             stiff: Cell::new(false),
+            exponential_declined: Cell::new(false),
             start_sliding_rate: Cell::new(0.0),
         }
     }
@@ -540,6 +553,7 @@ impl<'a> SlidingStep<'a> {
         h: f64,
     ) -> Result<(), NotConverged> {
         self.stiff.set(false);
+        self.exponential_declined.set(false);
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
@@ -567,7 +581,11 @@ impl<'a> SlidingStep<'a> {
         // (a stiff slide is smooth once its force has turned, within microseconds, so one
         // substep usually takes the step), and the error control shortens them.
         let longest = self.longest_substep();
-        let mut length = if self.stiff.get() { h } else { h.min(0.5 * longest) };
+        let mut length = if self.stiff.get() || self.exponential_suited() {
+            h
+        } else {
+            h.min(0.5 * longest)
+        };
         let mut changes: Changes = [[0; MAX_BRANCHES]; Group::COUNT];
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
@@ -583,10 +601,16 @@ impl<'a> SlidingStep<'a> {
             if t >= h {
                 break;
             }
-            // The implicit substeps are stable at any length.
+            // The implicit substeps are stable at any length. The explicit ones stay
+            // below `longest`: the extrapolated ones for stability, the exponential ones
+            // so that their samples of the event values are as close (a limit touched
+            // and left again inside a substep shows between them).
             length = length.min(h - t);
             if !self.stiff.get() {
                 length = length.min(longest);
+            }
+            if self.exponential_suited() {
+                length = length.min(0.25 * longest);
             }
             let (start_rates, start_events) = self.rates(t, &z, &modes);
             let start = (&start_rates, &start_events);
@@ -603,16 +627,28 @@ impl<'a> SlidingStep<'a> {
                 }
                 length = at;
             }
-            let short = predicted.is_some() && length <= SHORT * longest;
-            let Some((mut z_end, growth, interior, spacing)) =
-                self.substep(t, &z, start, length, &modes, short)
-            else {
-                length *= 0.25;
-                if length <= 1e-15 * h {
-                    return Err(NotConverged);
-                }
-                continue;
+            let toward = match predicted {
+                None => Toward::NoEvent,
+                Some(_) if length <= SHORT * longest => Toward::NearEvent,
+                Some(_) => Toward::Event,
             };
+            // An extrapolated substep towards an event further than `longest`: as far as
+            // that, the event still ahead.
+            if toward != Toward::NoEvent && !self.stiff.get() && length > longest {
+                length = longest;
+                predicted = None;
+            }
+            let (mut z_end, growth, interior, spacing) =
+                match self.substep(t, &z, start, length, &modes, toward) {
+                    Ok(taken) => taken,
+                    Err(shorter) => {
+                        length *= shorter;
+                        if length <= 1e-15 * h {
+                            return Err(NotConverged);
+                        }
+                        continue;
+                    }
+                };
             let (end_rates, mut end_events) = self.rates(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
@@ -749,7 +785,7 @@ impl<'a> SlidingStep<'a> {
 
     /// The longest substep: four of the fastest time constants (a quarter of one per
     /// midpoint step of the finest row).
-    fn longest_substep(&self) -> f64 {
+    pub(super) fn longest_substep(&self) -> f64 {
         let fastest = self.friction.fastest_rate(self.system);
         if fastest > 0.0 {
             4.0 / fastest
@@ -917,4 +953,23 @@ impl<'a> SlidingStep<'a> {
         let (x_rates, offset_rates, _) = self.unpacked_rates(x, sliders, false);
         (x_rates, offset_rates)
     }
+}
+
+/// What the sliding path's tests step: a tire of parameters `p` at `vx` and `load`, its
+/// friction, its limits, and the elastic travel to its largest limit.
+#[cfg(test)]
+fn tire_at(p: &crate::physics::Parameters, vx: f64, load: f64) -> (StateSpace, Friction, Limits, f64) {
+    use crate::physics::{Parameter, Tire, stepper::AffineSystem};
+    let equations = p.model.equations();
+    let affine = AffineSystem::from_samples(|at| equations.system(p, &at));
+    let friction = Friction::new(
+        p.friction,
+        equations.contact_elements(p),
+        &affine.state_coupling(),
+    )
+    .unwrap();
+    let system = Tire::new(p.clone()).unwrap().system_at(vx, load);
+    let limits = Limits::at(p, load);
+    let travel = limits.0.iter().copied().fold(0.0, f64::max) / p.get(Parameter::CorneringStiffness);
+    (system, friction, limits, travel)
 }

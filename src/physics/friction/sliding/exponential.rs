@@ -1,0 +1,331 @@
+//! One substep of a piece by an exponential Rosenbrock method, exprb43 (Hochbruck,
+//! Ostermann and Schweitzer, SIAM J. Numer. Anal. 47, 2009): where no event is near.
+//!
+//! Within a piece every group keeps its mode, and over a millisecond the right-hand side
+//! `f` is linear to a few parts in 1e9 (`cargo bench --bench exponential_probe`). So the
+//! substep takes its linear part `J` (the closed-form Jacobian at the start,
+//! [`super::implicit`]) exactly through phi-functions, and only the small remainder
+//! `N(u) = f(u) - J u` by quadrature. With `X = H J`, `D_i = N(U_i) - N(z)`:
+//!
+//! ```text
+//! U2 = z + H/2 phi1(X/2) f(z)
+//! U3 = z + H phi1(X) (f(z) + D2)
+//! z' = z + H phi1(X) f(z) + H (16 phi3(X) - 48 phi4(X)) D2 + H (12 phi4(X) - 2 phi3(X)) D3
+//! ```
+//!
+//! three evaluations for fourth order, where the extrapolation takes 13 to 31. Dropping
+//! the `phi4` terms gives the embedded third-order solution; their difference,
+//! `H phi4(X) (12 D3 - 48 D2)`, controls the substep's length as the extrapolation's
+//! error does. A linear piece (every group sticking) has no remainder: the substep is the
+//! exact solution.
+//!
+//! The products `phi_k(X) v` are Taylor series of matrix-vector products, summed to
+//! below the tolerance; one series of powers `X^j v` serves every phi-function of the
+//! same `v`. `X` is made dense once, in arrays of the entries' size (at most twelve), so
+//! that a product is a short loop of known length. A substep whose series would be long
+//! (`X` large: a stiff slide, which the linearly implicit method takes) is not taken this
+//! way.
+//!
+//! The event values at `U2` and `U3` are checked as the midpoint rows check their
+//! samples ([`super::events::InteriorSearch`]): a group near its limit anywhere in the
+//! substep hands the substep to the extrapolation, whose finer samples and accurate
+//! intermediate values locate events; so events are found where they were.
+
+use super::events::InteriorSearch;
+use super::extrapolation::{ROUNDING, TOLERANCE};
+use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use crate::physics::stepper::phi::inverse_factorials;
+
+/// The most terms of one phi-series; a substep that needs more is too long for it.
+const MAX_TERMS: usize = 30;
+/// `1/k!` as far as the longest series of `phi4` reads.
+const INVERSE_FACTORIAL: [f64; MAX_TERMS + 5] = inverse_factorials();
+/// `2^-j`, for `phi1(X / 2)` from the powers of `X`.
+const HALF_POWERS: [f64; MAX_TERMS] = {
+    let mut table = [1.0; MAX_TERMS];
+    let mut j = 1;
+    while j < MAX_TERMS {
+        table[j] = 0.5 * table[j - 1];
+        j += 1;
+    }
+    table
+};
+/// A series ends where a term moves every entry by less than this fraction of the
+/// substep's tolerance.
+const NEGLIGIBLE: f64 = 1e-3;
+
+/// How many times the tolerance the embedded estimate may be. It is the third-order
+/// solution's error; the fourth-order one taken is far closer: over the slide
+/// yardstick's steps, 20 to 700 times (`cargo bench --bench exponential_probe`).
+const ESTIMATE_MARGIN: f64 = 20.0;
+
+/// How an exponential substep ended.
+pub(super) enum Exponential {
+    /// Accurate: the end, and the factor by which the next substep may grow.
+    Taken(Vector, f64),
+    /// Its error estimate is past the tolerance: the piece is further from linear than a
+    /// fourth-order step of this length takes.
+    TooLong,
+    /// A limit is near inside it, or the series would be long: the extrapolation takes it.
+    NotSuited,
+}
+
+/// `X = H J` made dense in `E` x `E` arrays (`E` at least the entries in use; the rows
+/// and columns past them zero), and what its series need.
+struct Linearisation<const E: usize> {
+    /// By column: a product adds columns, every entry's sum independent of the others'.
+    columns: [[f64; E]; E],
+    length: f64,
+    /// The size of a term's contribution below which it no longer counts.
+    negligible: f64,
+}
+
+impl<const E: usize> Linearisation<E> {
+    fn times(&self, v: &[f64; E]) -> [f64; E] {
+        let mut product = [0.0; E];
+        for (column, &factor) in self.columns.iter().zip(v) {
+            for r in 0..E {
+                product[r] += column[r] * factor;
+            }
+        }
+        product
+    }
+
+    /// `sum_j weights(j)[k] X^j v` for each `k` (`weights(j)[0]` the largest); `None` if the terms do not fall below
+    /// [`Linearisation::negligible`] within [`MAX_TERMS`]. A term ends the series where
+    /// its contribution is negligible and the next one is at most half of it (the powers
+    /// grow by less than the weights fall), so that the rest is too.
+    fn series<const K: usize>(
+        &self,
+        v: &[f64; E],
+        weights: impl Fn(usize) -> [f64; K],
+    ) -> Option<[[f64; E]; K]> {
+        let mut sums = [[0.0; E]; K];
+        let mut power = *v;
+        let mut previous_largest = f64::INFINITY;
+        for j in 0..MAX_TERMS {
+            let w = weights(j);
+            let mut largest = 0.0_f64;
+            for c in 0..E {
+                largest = largest.max(power[c].abs());
+            }
+            for k in 0..K {
+                for c in 0..E {
+                    sums[k][c] += w[k] * power[c];
+                }
+            }
+            // The first weight is the largest (phi-functions of lower index first).
+            let heaviest = w[0];
+            // The powers grow by `largest / previous_largest` a term, the weights fall by
+            // `1 / (j + 2)` or faster.
+            let next_at_most_half = largest <= 0.5 * (j + 2) as f64 * previous_largest;
+            if self.length * heaviest * largest <= self.negligible
+                && (j > 0 && next_at_most_half || largest == 0.0)
+            {
+                return Some(sums);
+            }
+            previous_largest = largest;
+            power = self.times(&power);
+        }
+        None
+    }
+}
+
+/// The first `E` entries of a coupled vector.
+fn shortened<const E: usize>(v: &Vector) -> [f64; E] {
+    std::array::from_fn(|c| v[c])
+}
+
+impl SlidingStep<'_> {
+    /// One exprb43 substep of `length` from `z` at `t`, with its start rates and event
+    /// values (see the module's doc); with `look_inside`, one near a limit is not taken.
+    /// Held driving inputs only: the linearisation carries no time.
+    pub(super) fn exponential_substep(
+        &self,
+        t: f64,
+        z: &Vector,
+        start: (&Vector, &Events),
+        length: f64,
+        modes: &Modes,
+        look_inside: bool,
+    ) -> Exponential {
+        let substep = (t, z, start, length, modes, look_inside);
+        match self.size() {
+            0..=4 => self.exponential_substep_for::<4>(substep),
+            5..=8 => self.exponential_substep_for::<8>(substep),
+            9..=12 => self.exponential_substep_for::<12>(substep),
+            _ => self.exponential_substep_for::<SIZE>(substep),
+        }
+    }
+
+    /// [`SlidingStep::exponential_substep`] in arrays of `E` entries.
+    #[allow(clippy::type_complexity)]
+    fn exponential_substep_for<const E: usize>(
+        &self,
+        (t, z, (start_rates, start_events), length, modes, look_inside): (
+            f64,
+            &Vector,
+            (&Vector, &Events),
+            f64,
+            &Modes,
+            bool,
+        ),
+    ) -> Exponential {
+        let jacobian = self.jacobian(t, z, start_rates, modes);
+        let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        // `I - s J` at `s = -H`, less the identity, by column.
+        let rows = jacobian.implicit_matrix::<E>(-length);
+        let mut columns = [[0.0; E]; E];
+        for (r, row) in rows.iter().enumerate() {
+            for (c, &value) in row.iter().enumerate() {
+                columns[c][r] = value;
+            }
+        }
+        for (c, column) in columns.iter_mut().enumerate().take(self.size()) {
+            column[c] -= 1.0;
+        }
+        let linear = Linearisation {
+            columns,
+            length,
+            negligible: NEGLIGIBLE * (TOLERANCE * self.scale + ROUNDING * largest),
+        };
+        let (z0, f0) = (shortened::<E>(z), shortened::<E>(start_rates));
+        let phi = |k: usize, j: usize| INVERSE_FACTORIAL[j + k];
+        // phi1(X) f and phi1(X/2) f from one series.
+        let Some([whole, half]) = linear.series(&f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]]) else {
+            return Exponential::NotSuited;
+        };
+        let mut search = InteriorSearch::new(start_events);
+        // `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates.
+        let remainder = |u: &Vector, rates: &Vector| {
+            let mut moved = [0.0; E];
+            for c in 0..E {
+                moved[c] = u[c] - z0[c];
+            }
+            let linear_part = linear.times(&moved);
+            let mut d = [0.0; E];
+            for c in 0..E {
+                d[c] = rates[c] - f0[c] - linear_part[c] / length;
+            }
+            d
+        };
+        let mut middle = *z;
+        for c in 0..E {
+            middle[c] += 0.5 * length * half[c];
+        }
+        let (middle_rates, middle_events) = self.rates(t + 0.5 * length, &middle, modes);
+        search.sample(1, 0.5 * length, &middle_events);
+        let d2 = remainder(&middle, &middle_rates);
+        let Some([d2_phi1, d2_phi3, d2_phi4]) = linear.series(&d2, |j| [phi(1, j), phi(3, j), phi(4, j)])
+        else {
+            return Exponential::NotSuited;
+        };
+        let mut end = *z;
+        for c in 0..E {
+            end[c] += length * (whole[c] + d2_phi1[c]);
+        }
+        let (end_rates, end_events) = self.rates(t + length, &end, modes);
+        search.sample(2, 0.5 * length, &end_events);
+        if look_inside && search.found() != (None, None) {
+            return Exponential::NotSuited;
+        }
+        let d3 = remainder(&end, &end_rates);
+        let Some([d3_phi3, d3_phi4]) = linear.series(&d3, |j| [phi(3, j), phi(4, j)]) else {
+            return Exponential::NotSuited;
+        };
+        let mut fourth = *z;
+        let mut third = *z;
+        for c in 0..E {
+            third[c] += length * (whole[c] + 16.0 * d2_phi3[c] - 2.0 * d3_phi3[c]);
+            fourth[c] = third[c] + length * (12.0 * d3_phi4[c] - 48.0 * d2_phi4[c]);
+        }
+        if !fourth.iter().all(|v| v.is_finite()) {
+            return Exponential::NotSuited;
+        }
+        // The third-order solution's error ~ length^4: aim at a third of the tolerance.
+        let error = self.error_ratio(z, &fourth, &third) / ESTIMATE_MARGIN;
+        if error <= 1.0 {
+            let growth = 0.9 * (3.0 * error).max(1e-10).powf(-0.25);
+            Exponential::Taken(fourth, growth.clamp(0.2, 4.0))
+        } else {
+            Exponential::TooLong
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::super::{SlidingStep, tire_at};
+    use super::Exponential;
+    use crate::physics::friction::{FrictionLaw, SliderState};
+    use crate::physics::state_space::{DrivingVector, StateVector};
+    use crate::physics::{ModelKind, Parameter, Parameters};
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(100))]
+
+        /// Where it takes a substep, the exponential one ends where the extrapolated one
+        /// does (each to a relative 1e-12), for every model sliding in one direction or
+        /// in two, after 20 ms from states about the elastic travel, over the longest
+        /// substep of 4 ms down to 10 us that it takes.
+        #[test]
+        fn an_exponential_substep_ends_where_the_extrapolated_one_does(
+            model in prop::sample::select(ModelKind::ALL.to_vec()),
+            combined in any::<bool>(),
+            vx in -20.0..20.0f64,
+            load_ratio in 0.2..2.0f64,
+            inputs in prop::array::uniform3(-1.0..1.0f64),
+            states in prop::array::uniform4(-1.5..1.5f64),
+        ) {
+            let law = FrictionLaw::Brush;
+            let mut p = Parameters::default().with_model(model).with_friction(law);
+            p.set(Parameter::LateralFriction, 0.01).unwrap();
+            if combined {
+                p.set(Parameter::LongitudinalFriction, 0.01).unwrap();
+            }
+            let load = load_ratio * p.get(Parameter::NominalLoad);
+            let (system, mut friction, limits, travel) = tire_at(&p, vx, load);
+            let mut x = StateVector::zeros();
+            for k in 0..system.states.min(4) {
+                x[k] = states[k] * travel;
+            }
+            let mut sliders = SliderState::AT_REST;
+            let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
+            let step = SlidingStep::new(&system, &mut friction, limits, (u, DrivingVector::zeros()), travel);
+            // A slide as the tire meets it: settled from there for 20 ms.
+            step.prepare(&mut x, &mut sliders);
+            step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
+            step.prepare(&mut x, &mut sliders);
+            let (z, modes) = (step.layout.pack(&x, &sliders), sliders.sliding);
+            let (rates, events) = step.rates(0.0, &z, &modes);
+            // The longest of these substeps the exponential method takes (the shortest
+            // it nearly always does).
+            let taken = [4e-3, 1e-3, 1e-4, 1e-5].into_iter().find_map(|length| {
+                match step.exponential_substep(0.0, &z, (&rates, &events), length, &modes, true) {
+                    Exponential::Taken(end, _) => Some((length, end)),
+                    _ => None,
+                }
+            });
+            // Near a limit: the extrapolation takes it (not this test's).
+            prop_assume!(taken.is_some());
+            let (length, exponential) = taken.unwrap();
+            prop_assume!(length <= step.longest_substep());
+            let extrapolated = step
+                .substep_by(0.0, &z, (&rates, &events), length, &modes, false)
+                .map(|(end, ..)| end)
+                .expect("the extrapolation takes a substep within its longest");
+            let size = step.size();
+            let largest = z[..size].iter().chain(&extrapolated[..size]).fold(travel, |m, v| m.max(v.abs()));
+            for c in 0..size {
+                prop_assert!(
+                    (exponential[c] - extrapolated[c]).abs() <= 1e-10 * largest,
+                    "{model:?} combined {combined}, entry {c} of {size}: {} vs {} (largest {largest})",
+                    exponential[c],
+                    extrapolated[c]
+                );
+            }
+        }
+    }
+}
