@@ -149,27 +149,23 @@ impl SlidingStep<'_> {
         modes: &Modes,
         look_inside: bool,
     ) -> Exponential {
-        let substep = (t, z, start, length, modes, look_inside);
         match self.size() {
-            0..=4 => self.exponential_substep_for::<4>(substep),
-            5..=8 => self.exponential_substep_for::<8>(substep),
-            9..=12 => self.exponential_substep_for::<12>(substep),
-            _ => self.exponential_substep_for::<SIZE>(substep),
+            0..=4 => self.exponential_substep_for::<4>(t, z, start, length, modes, look_inside),
+            5..=8 => self.exponential_substep_for::<8>(t, z, start, length, modes, look_inside),
+            9..=12 => self.exponential_substep_for::<12>(t, z, start, length, modes, look_inside),
+            _ => self.exponential_substep_for::<SIZE>(t, z, start, length, modes, look_inside),
         }
     }
 
     /// [`SlidingStep::exponential_substep`] in arrays of `E` entries.
-    #[allow(clippy::type_complexity)]
     fn exponential_substep_for<const E: usize>(
         &self,
-        (t, z, (start_rates, start_events), length, modes, look_inside): (
-            f64,
-            &Vector,
-            (&Vector, &Events),
-            f64,
-            &Modes,
-            bool,
-        ),
+        t: f64,
+        z: &Vector,
+        (start_rates, start_events): (&Vector, &Events),
+        length: f64,
+        modes: &Modes,
+        look_inside: bool,
     ) -> Exponential {
         let jacobian = self.jacobian(t, z, start_rates, modes);
         let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));

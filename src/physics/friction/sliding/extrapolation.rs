@@ -94,8 +94,8 @@ impl SlidingStep<'_> {
 
     /// A substep from `z` with its `start` rates and event values, by what lies ahead
     /// ([`Toward`]): its end, the factor by which the next substep may grow, where a limit
-    /// may have been touched inside it and the spacing of the samples that found it; or
-    /// the factor by which it must be shortened.
+    /// may have been touched inside it and the spacing of the samples that found it;
+    /// `None` if it did not reach the tolerance.
     ///
     /// - No predicted event: by exprb43 ([`super::exponential`]) where it is suited
     ///   ([`SlidingStep::exponential_suited`]) and no limit is near; otherwise
@@ -107,6 +107,8 @@ impl SlidingStep<'_> {
     ///   extrapolation first: rows of 1, 2, 3 and 4 Euler steps cost 0, 1, 2 and 3
     ///   evaluations, and usually agree at the third, where the midpoint rows take six;
     ///   those follow if four Euler rows do not agree.
+    ///
+    /// A stiff step's substeps are all linearly implicit.
     pub(super) fn substep(
         &self,
         t: f64,
@@ -115,34 +117,28 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
         toward: Toward,
-    ) -> Result<(Vector, f64, Option<Interior>, f64), f64> {
-        const SHORTER: f64 = 0.25;
-        if self.stiff.get() {
-            return self.substep_by(t, z, start, length, modes, true).ok_or(SHORTER);
-        }
-        match toward {
-            Toward::NoEvent if self.exponential_suited() => {
-                match self.exponential_substep(t, z, start, length, modes, true) {
-                    Exponential::Taken(end, growth) => return Ok((end, growth, None, 0.5 * length)),
-                    Exponential::TooLong => self.exponential_declined.set(true),
-                    Exponential::NotSuited => {}
+    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+        if !self.stiff.get() {
+            match toward {
+                Toward::NoEvent if self.exponential_suited() => {
+                    match self.exponential_substep(t, z, start, length, modes, true) {
+                        Exponential::Taken(end, growth) => return Some((end, growth, None, 0.5 * length)),
+                        Exponential::TooLong => self.exponential_declined.set(true),
+                        Exponential::NotSuited => {}
+                    }
                 }
-            }
-            Toward::NearEvent => {
-                let euler =
-                    |n| Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates));
-                if let Some(taken) = self.extrapolate(z, &SHORT_SEQUENCE, 1, true, euler) {
-                    return Ok(taken);
+                Toward::NearEvent => {
+                    let euler = |n| {
+                        Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates))
+                    };
+                    if let Some(taken) = self.extrapolate(z, &SHORT_SEQUENCE, 1, true, euler) {
+                        return Some(taken);
+                    }
                 }
+                _ => {}
             }
-            _ => {}
         }
-        // Extrapolated, it stays below the longest substep (an exponential one need not).
-        let longest = self.longest_substep();
-        if length > longest {
-            return Err(longest / length);
-        }
-        self.substep_by(t, z, start, length, modes, true).ok_or(SHORTER)
+        self.substep_by(t, z, start, length, modes, true)
     }
 
     /// Whether a substep may be exponential: an explicit step (the linearly implicit one

@@ -581,11 +581,7 @@ impl<'a> SlidingStep<'a> {
         // (a stiff slide is smooth once its force has turned, within microseconds, so one
         // substep usually takes the step), and the error control shortens them.
         let longest = self.longest_substep();
-        let mut length = if self.stiff.get() || self.exponential_suited() {
-            h
-        } else {
-            h.min(0.5 * longest)
-        };
+        let mut length = if self.stiff.get() { h } else { h.min(0.5 * longest) };
         let mut changes: Changes = [[0; MAX_BRANCHES]; Group::COUNT];
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
@@ -632,23 +628,15 @@ impl<'a> SlidingStep<'a> {
                 Some(_) if length <= SHORT * longest => Toward::NearEvent,
                 Some(_) => Toward::Event,
             };
-            // An extrapolated substep towards an event further than `longest`: as far as
-            // that, the event still ahead.
-            if toward != Toward::NoEvent && !self.stiff.get() && length > longest {
-                length = longest;
-                predicted = None;
-            }
-            let (mut z_end, growth, interior, spacing) =
-                match self.substep(t, &z, start, length, &modes, toward) {
-                    Ok(taken) => taken,
-                    Err(shorter) => {
-                        length *= shorter;
-                        if length <= 1e-15 * h {
-                            return Err(NotConverged);
-                        }
-                        continue;
-                    }
-                };
+            let Some((mut z_end, growth, interior, spacing)) =
+                self.substep(t, &z, start, length, &modes, toward)
+            else {
+                length *= 0.25;
+                if length <= 1e-15 * h {
+                    return Err(NotConverged);
+                }
+                continue;
+            };
             let (end_rates, mut end_events) = self.rates(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
