@@ -285,12 +285,17 @@ impl GroupLaw {
         self.direction[m] = direction as usize;
         self.stiffness[m] = stiffness;
         self.damping[m] = damping;
-        self.limit[m] = limit;
-        self.inverse_limit[m] = limit.recip();
-        self.weight[m] = damping / (limit * limit);
         self.inverse_damping[m] = if damping > 0.0 { damping.recip() } else { 0.0 };
+        self.set_limit(m, limit);
         self.count += 1;
         self
+    }
+
+    /// Member `m`'s limit, and the constants made from it.
+    pub fn set_limit(&mut self, m: usize, limit: f64) {
+        self.limit[m] = limit;
+        self.inverse_limit[m] = limit.recip();
+        self.weight[m] = self.damping[m] / (limit * limit);
     }
 
     /// The indices of its members. (The law's own sums take every slot: a missing

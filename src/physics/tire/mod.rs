@@ -366,8 +366,7 @@ impl Tire {
             return self.contact_system(mode).at(point).outputs(x, &u);
         };
         let (mut x, mut sliders) = (*x, *sliders);
-        step.prepare(&mut x, &mut sliders);
-        let change = step.damper_force_changes(&x, &sliders);
+        let change = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
         let mut y = step.system.outputs(&x, &u);
         for (d, element) in step.friction.elements.iter().enumerate() {
             if let Some(element) = element

@@ -327,13 +327,37 @@ impl Friction {
             }
         }
         // The entries depend on the model alone: laid out at the first sliding step.
-        if self.sliding_slots.layout.states != system.states {
+        let laid_out = &self.sliding_slots;
+        if laid_out.layout.states != system.states {
             self.sliding_slots.layout = Layout::new(self, system.states);
-        } else if made_for == self.sliding_slots.made_for {
+        } else if made_for == laid_out.made_for {
+            return;
+        } else if (0..Direction::COUNT)
+            .all(|d| (f64::from_bits(laid_out.made_for[d]) > 0.0) == (limits.0[d] > 0.0))
+        {
+            // The same members (a vehicle's load moves every step, and the speed with
+            // it): only the constants the limits and relaxation rates make change.
+            self.sliding_slots.made_for = made_for;
+            self.refresh_sliding_slots(system, limits);
             return;
         }
         self.sliding_slots.made_for = made_for;
         self.fill_sliding_slots(system, limits);
+    }
+
+    /// The slots' limits and relaxation rates at `limits` and `system`, their members
+    /// kept (as [`Friction::fill_sliding_slots`] makes them).
+    fn refresh_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
+        let laid_out = &mut self.sliding_slots;
+        for slot in &mut laid_out.slots[..laid_out.count] {
+            let limit_fraction = self.branches[slot.branch].limit_fraction;
+            for m in slot.law.members() {
+                let state = slot.states[m];
+                slot.relaxation[m] = system.a[(state, state)];
+                slot.law
+                    .set_limit(m, limit_fraction * limits.0[slot.law.direction[m]]);
+            }
+        }
     }
 
     /// The slots of [`Friction::lay_out_sliding`], written where they are kept.
@@ -788,7 +812,26 @@ impl<'a> SlidingStep<'a> {
     /// outside its limit is put on it (the load fell), and each group's mode is decided
     /// from its state. Returns true if every group sticks strictly inside its limit.
     pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
-        self.decide_modes(x, sliders, false)
+        self.decide_modes(x, sliders, false, None)
+    }
+
+    /// [`SlidingStep::prepare`], and then [`SlidingStep::damper_force_changes`] at the
+    /// prepared states: from the same evaluation where preparing moved no deflection.
+    pub fn prepare_with_damper_force_changes(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+    ) -> [f64; Direction::COUNT] {
+        let mut change = [0.0; Direction::COUNT];
+        let before = (*x, sliders.offsets);
+        self.decide_modes(x, sliders, false, Some(&mut change));
+        // Where a deflection was moved or a direction is frictionless (whose damper's
+        // share goes), the changes are made at the prepared states.
+        if (*x, sliders.offsets) == before && self.limits.0.iter().all(|&limit| limit > 0.0) {
+            change
+        } else {
+            self.damper_force_changes(x, sliders)
+        }
     }
 
     /// At an event of the hybrid system ([`crate::physics::tire::hybrid`]): as
@@ -797,10 +840,18 @@ impl<'a> SlidingStep<'a> {
     /// inward): its slider slips as the limit falls. (A step holds the load, so it needs no
     /// such rule.)
     pub fn update_modes(&self, x: &mut StateVector, sliders: &mut SliderState) {
-        self.decide_modes(x, sliders, true);
+        self.decide_modes(x, sliders, true, None);
     }
 
-    fn decide_modes(&self, x: &mut StateVector, sliders: &mut SliderState, pushed_out_slides: bool) -> bool {
+    /// With `damper_changes`, also adds up [`SlidingStep::damper_force_changes`] at the
+    /// states as they come (the prepared ones where nothing was moved).
+    fn decide_modes(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        pushed_out_slides: bool,
+        mut damper_changes: Option<&mut [f64; Direction::COUNT]>,
+    ) -> bool {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
         let mut inside = true;
@@ -824,8 +875,17 @@ impl<'a> SlidingStep<'a> {
         for slot in self.slots() {
             let input = self.slot_input(slot, &states, &rates, &z);
             let sliding = if input.damped() {
-                let utilisation = input.utilisation(&input.sticking_force());
+                let trial = input.sticking_force();
+                let utilisation = input.utilisation(&trial);
                 inside &= utilisation < 1.0;
+                if let Some(change) = damper_changes.as_deref_mut()
+                    && utilisation > 1.0
+                {
+                    let force = input.closest_point(&trial, utilisation);
+                    for m in input.members() {
+                        change[input.direction[m]] += force[m] - trial[m];
+                    }
+                }
                 utilisation > 1.0
             } else {
                 let force = input.spring_force();
@@ -960,4 +1020,57 @@ fn tire_at(p: &crate::physics::Parameters, vx: f64, load: f64) -> (StateSpace, F
     let limits = Limits::at(p, load);
     let travel = limits.0.iter().copied().fold(0.0, f64::max) / p.get(Parameter::CorneringStiffness);
     (system, friction, limits, travel)
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::{SlidingStep, tire_at};
+    use crate::physics::friction::{FrictionLaw, SliderState};
+    use crate::physics::state_space::{DrivingVector, StateVector};
+    use crate::physics::{ModelKind, Parameter, Parameters};
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Slots kept from a step at another load and speed, their limits and relaxation
+        /// rates refreshed, are the slots laid out anew; and the outputs' damper force
+        /// changes made with the mode decision are those made after it.
+        #[test]
+        fn kept_slots_and_fused_damper_changes_are_the_same_as_made_anew(
+            model in prop::sample::select(ModelKind::ALL.to_vec()),
+            law in prop::sample::select(vec![FrictionLaw::Coulomb, FrictionLaw::Brush]),
+            vx in prop::array::uniform2(-20.0..20.0f64),
+            load_ratio in prop::array::uniform2(0.05..2.0f64),
+            inputs in prop::array::uniform3(-1.0..1.0f64),
+            states in prop::array::uniform4(-1.5..1.5f64),
+        ) {
+            let mut p = Parameters::default().with_model(model).with_friction(law);
+            p.set(Parameter::LateralFriction, 0.02).unwrap();
+            let nominal = p.get(Parameter::NominalLoad);
+            let (system, mut kept, limits, travel) = tire_at(&p, vx[0], load_ratio[0] * nominal);
+            let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
+            SlidingStep::new(&system, &mut kept, limits, (u, DrivingVector::zeros()), travel);
+            // The next step, at another point: kept slots refreshed, or made anew.
+            let (system, mut fresh, limits, travel) = tire_at(&p, vx[1], load_ratio[1] * nominal);
+            let inputs = (u, DrivingVector::zeros());
+            SlidingStep::new(&system, &mut kept, limits, inputs, travel);
+            SlidingStep::new(&system, &mut fresh, limits, inputs, travel);
+            prop_assert_eq!(&kept.sliding_slots, &fresh.sliding_slots);
+
+            let step = SlidingStep::new(&system, &mut fresh, limits, inputs, travel);
+            let mut x = StateVector::zeros();
+            for k in 0..system.states.min(4) {
+                x[k] = states[k] * travel;
+            }
+            let (mut x_fused, mut sliders_fused) = (x, SliderState::AT_REST);
+            let fused = step.prepare_with_damper_force_changes(&mut x_fused, &mut sliders_fused);
+            let mut sliders = SliderState::AT_REST;
+            step.prepare(&mut x, &mut sliders);
+            prop_assert_eq!(x_fused, x);
+            prop_assert_eq!(sliders_fused, sliders);
+            prop_assert_eq!(fused, step.damper_force_changes(&x, &sliders));
+        }
+    }
 }
