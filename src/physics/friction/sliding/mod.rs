@@ -807,12 +807,21 @@ impl<'a> SlidingStep<'a> {
     }
 }
 
+/// What deciding the modes at a step's start found.
+struct Decided {
+    /// Every group sticks strictly inside its limit.
+    inside: bool,
+    /// A deflection was moved (onto its limit, or to zero in a frictionless direction),
+    /// and the states and offsets written back.
+    moved: bool,
+}
+
 impl<'a> SlidingStep<'a> {
     /// Brings the branches to the step's limits and inputs at its start: a spring force
     /// outside its limit is put on it (the load fell), and each group's mode is decided
     /// from its state. Returns true if every group sticks strictly inside its limit.
     pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
-        self.decide_modes(x, sliders, false, None)
+        self.decide_modes(x, sliders, false, None).inside
     }
 
     /// [`SlidingStep::prepare`], and then [`SlidingStep::damper_force_changes`] at the
@@ -823,14 +832,12 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
     ) -> [f64; Direction::COUNT] {
         let mut change = [0.0; Direction::COUNT];
-        let before = (*x, sliders.offsets);
-        self.decide_modes(x, sliders, false, Some(&mut change));
-        // Where a deflection was moved or a direction is frictionless (whose damper's
+        // Where a deflection was moved (a frictionless direction's too, whose damper's
         // share goes), the changes are made at the prepared states.
-        if (*x, sliders.offsets) == before && self.limits.0.iter().all(|&limit| limit > 0.0) {
-            change
-        } else {
+        if self.decide_modes(x, sliders, false, Some(&mut change)).moved {
             self.damper_force_changes(x, sliders)
+        } else {
+            change
         }
     }
 
@@ -851,7 +858,7 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
         pushed_out_slides: bool,
         mut damper_changes: Option<&mut [f64; Direction::COUNT]>,
-    ) -> bool {
+    ) -> Decided {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
         let mut inside = true;
@@ -910,7 +917,7 @@ impl<'a> SlidingStep<'a> {
         if moved {
             *x = layout.unpack(&z, sliders);
         }
-        inside
+        Decided { inside, moved }
     }
 
     /// The change of the element forces (by direction) that the damped groups' limits
