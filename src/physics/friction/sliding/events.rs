@@ -142,8 +142,8 @@ pub(super) fn first_past_tolerance(events: &Events) -> Option<(usize, usize)> {
 
 impl SlidingStep<'_> {
     /// The time in `window` (clipped to the substep) at which group `g`, branch `i` has
-    /// its largest event value, if that is past the tolerance: a golden-section search on
-    /// the accurate solution.
+    /// its largest event value, if that is past the tolerance: a search on the accurate
+    /// solution ([`largest_past`]; each value it asks for is a substep from `t`).
     pub(super) fn touches_near(
         &self,
         t: f64,
@@ -162,39 +162,7 @@ impl SlidingStep<'_> {
                     self.events(t + tau, &z_tau, modes)[g][i]
                 })
         };
-        const GOLDEN: f64 = 0.618_033_988_749_894_9;
-        let (mut lo, mut hi) = (window.0.max(0.0), window.1.min(length));
-        let mut a = hi - GOLDEN * (hi - lo);
-        let mut b = lo + GOLDEN * (hi - lo);
-        let (mut fa, mut fb) = (value(a), value(b));
-        for _ in 0..40 {
-            if fa.max(fb) > EVENT_TOLERANCE {
-                break;
-            }
-            if hi - lo <= 1e-6 * length {
-                break;
-            }
-            if fa > fb {
-                hi = b;
-                b = a;
-                fb = fa;
-                a = hi - GOLDEN * (hi - lo);
-                fa = value(a);
-            } else {
-                lo = a;
-                a = b;
-                fa = fb;
-                b = lo + GOLDEN * (hi - lo);
-                fb = value(b);
-            }
-        }
-        if fa > EVENT_TOLERANCE {
-            Some(a)
-        } else if fb > EVENT_TOLERANCE {
-            Some(b)
-        } else {
-            None
-        }
+        largest_past(value, (window.0.max(0.0), window.1.min(length)), 1e-6 * length)
     }
 
     /// The earliest mode change within the substep `(t, z, length, modes)` among the
@@ -474,5 +442,193 @@ impl SlidingStep<'_> {
             }
         }
         Ok((hi, reached))
+    }
+}
+
+/// Where in `window` the smooth `value` is past [`EVENT_TOLERANCE`], searched for about
+/// its largest value (taken to have one peak there, or to be largest at an end): the first
+/// point tried that is past it, or `None` once the largest is bracketed within
+/// `resolution`.
+///
+/// The ends first: a value that falls from an end of the window (as a group's does that
+/// starts at its limit and moves away) is largest there, which two values show. Otherwise
+/// the peak is inside, and Brent's search brackets it: a parabola through the three best
+/// points so far proposes the next, a golden section where it would not shrink the
+/// bracket fast enough. Near a smooth peak the parabolas converge superlinearly. Either
+/// way a handful of values (each an accurate substep) do what a golden section did in
+/// thirty.
+fn largest_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolution: f64) -> Option<f64> {
+    let (lo, hi) = window;
+    let nudge = resolution.min(0.25 * (hi - lo));
+    for (end, inward) in [(lo, nudge), (hi, -nudge)] {
+        let at_end = value(end);
+        if at_end > EVENT_TOLERANCE {
+            return Some(end);
+        }
+        let inside = value(end + inward);
+        if inside > EVENT_TOLERANCE {
+            return Some(end + inward);
+        }
+        if inside <= at_end {
+            return None;
+        }
+    }
+    peak_past(value, window, resolution)
+}
+
+/// [`largest_past`] with the peak inside `window`: Brent's search.
+fn peak_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolution: f64) -> Option<f64> {
+    /// The smaller golden-section fraction, `(3 - sqrt 5) / 2`.
+    const GOLDEN: f64 = 0.381_966_011_250_105_1;
+    /// At most this many values: a safeguard, the bracket shrinks by the golden ratio
+    /// at least every other one.
+    const MOST_VALUES: usize = 80;
+    let (mut lo, mut hi) = window;
+    // The best point so far, the second best, and the one before it, with their values.
+    let mut best = lo + GOLDEN * (hi - lo);
+    let mut best_value = value(best);
+    let (mut second, mut second_value) = (best, best_value);
+    let (mut third, mut third_value) = (best, best_value);
+    // The last move, and the one before it.
+    let (mut moved, mut moved_before) = (0.0_f64, 0.0_f64);
+    let tolerance = 0.25 * resolution;
+    for _ in 0..MOST_VALUES {
+        if best_value > EVENT_TOLERANCE {
+            return Some(best);
+        }
+        let middle = 0.5 * (lo + hi);
+        if (best - middle).abs() <= 2.0 * tolerance - 0.5 * (hi - lo) {
+            return None;
+        }
+        // A parabola's vertex, if it lies inside the bracket and the step to it is less
+        // than half the one before last (otherwise the parabolas are not converging).
+        let mut parabolic = None;
+        if moved_before.abs() > tolerance {
+            let r = (best - second) * (best_value - third_value);
+            let q = (best - third) * (best_value - second_value);
+            let p = (best - third) * q - (best - second) * r;
+            let step = -p / (2.0 * (q - r));
+            let to = best + step;
+            // A NaN step (a value that could not be had) fails every test: golden.
+            if step.abs() < 0.5 * moved_before.abs() && to > lo && to < hi {
+                parabolic = Some(if to - lo < 2.0 * tolerance || hi - to < 2.0 * tolerance {
+                    tolerance.copysign(middle - best)
+                } else {
+                    step
+                });
+            }
+        }
+        let step = match parabolic {
+            Some(step) => {
+                moved_before = moved;
+                step
+            }
+            None => {
+                moved_before = if best >= middle { lo - best } else { hi - best };
+                GOLDEN * moved_before
+            }
+        };
+        moved = step;
+        let at = best
+            + if step.abs() >= tolerance {
+                step
+            } else {
+                tolerance.copysign(step)
+            };
+        let at_value = value(at);
+        if at_value > EVENT_TOLERANCE {
+            return Some(at);
+        }
+        if at_value >= best_value {
+            if at >= best {
+                lo = best;
+            } else {
+                hi = best;
+            }
+            (third, third_value) = (second, second_value);
+            (second, second_value) = (best, best_value);
+            (best, best_value) = (at, at_value);
+        } else {
+            if at < best {
+                lo = at;
+            } else {
+                hi = at;
+            }
+            if at_value >= second_value || second == best {
+                (third, third_value) = (second, second_value);
+                (second, second_value) = (at, at_value);
+            } else if at_value >= third_value || third == best || third == second {
+                (third, third_value) = (at, at_value);
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{EVENT_TOLERANCE, largest_past};
+
+    /// Smooth peaks inside a window: one past the tolerance is found at a point past it;
+    /// one below is ruled out once bracketed within the resolution. Either takes at most
+    /// twenty values (ends included) where a golden section takes about thirty.
+    #[test]
+    fn a_touch_is_found_or_ruled_out_in_a_handful_of_values() {
+        // (peak's place, its height, its curvature): parabolic and not.
+        let peaks = [
+            (0.3, -1e-9, 1.0),
+            (0.71, -1e-6, 40.0),
+            (0.5, 1e-9, 1.0),
+            (0.05, 5e-11, 2.0),
+            (0.93, -2e-12, 0.3),
+            (0.62, 3e-12, 0.01),
+        ];
+        for (place, height, curvature) in peaks {
+            for shape in ["parabola", "cosine"] {
+                let mut values = 0;
+                let curve = |tau: f64| {
+                    values += 1;
+                    let d: f64 = tau - place;
+                    match shape {
+                        "parabola" => height - 0.5 * curvature * d * d,
+                        _ => height - curvature * (1.0 - (d / (1.0 + d)).cos()),
+                    }
+                };
+                let found = largest_past(curve, (0.0, 1.0), 1e-6);
+                if height > EVENT_TOLERANCE {
+                    let at = found.unwrap_or_else(|| panic!("{shape} peak {height} at {place} missed"));
+                    let d = at - place;
+                    let there = match shape {
+                        "parabola" => height - 0.5 * curvature * d * d,
+                        _ => height - curvature * (1.0 - (d / (1.0 + d)).cos()),
+                    };
+                    assert!(
+                        there > EVENT_TOLERANCE,
+                        "{shape} peak at {place}: {at} is not past"
+                    );
+                } else {
+                    assert_eq!(found, None, "{shape} peak {height} at {place}");
+                }
+                assert!(values <= 20, "{shape} peak at {place}: {values} values");
+            }
+        }
+    }
+
+    /// The largest value at an end of the window (the value still rising there) is
+    /// bracketed there too.
+    #[test]
+    fn a_peak_at_the_window_end_is_bracketed() {
+        for (window, rising) in [((0.0, 1.0), 1.0), ((0.2, 0.4), -1.0)] {
+            let mut values = 0;
+            let curve = |tau: f64| {
+                values += 1;
+                -1e-3 + rising * 1e-4 * tau
+            };
+            assert_eq!(largest_past(curve, window, 1e-6), None);
+            assert!(values <= 60, "{values} values");
+        }
+        let touching = |tau: f64| -1e-9 + 1e-8 * tau;
+        let at = largest_past(touching, (0.0, 1.0), 1e-6).expect("past the tolerance near the end");
+        assert!(touching(at) > EVENT_TOLERANCE);
     }
 }

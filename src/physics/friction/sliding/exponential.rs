@@ -169,19 +169,8 @@ impl SlidingStep<'_> {
     ) -> Exponential {
         let jacobian = self.jacobian(t, z, start_rates, modes);
         let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        // `I - s J` at `s = -H`, less the identity, by column.
-        let rows = jacobian.implicit_matrix::<E>(-length);
-        let mut columns = [[0.0; E]; E];
-        for (r, row) in rows.iter().enumerate() {
-            for (c, &value) in row.iter().enumerate() {
-                columns[c][r] = value;
-            }
-        }
-        for (c, column) in columns.iter_mut().enumerate().take(self.size()) {
-            column[c] -= 1.0;
-        }
         let linear = Linearisation {
-            columns,
+            columns: jacobian.scaled_columns::<E>(length),
             length,
             negligible: NEGLIGIBLE * (TOLERANCE * self.scale + ROUNDING * largest),
         };

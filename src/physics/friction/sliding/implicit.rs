@@ -182,25 +182,41 @@ impl Jacobian<'_> {
         self.size() > DENSE.min(2 * self.layout.states)
     }
 
-    /// `I - s J` as one matrix (its first `size` rows and columns), for a Jacobian not
-    /// [`Jacobian::worth_structure`].
-    pub(super) fn implicit_matrix<const N: usize>(&self, s: f64) -> [[f64; N]; N] {
-        let mut matrix = [[0.0; N]; N];
+    /// `s J` by column (its first `size` rows and columns): column `c` is entry `c`'s
+    /// weight in the state it makes times that state's column of `P`, and its slot's
+    /// block.
+    pub(super) fn scaled_columns<const N: usize>(&self, s: f64) -> [[f64; N]; N] {
+        let mut columns = [[0.0; N]; N];
         let size = self.size().min(N);
-        for r in 0..size {
-            for c in 0..size {
-                let (state, weight) = self.makes[c];
-                matrix[r][c] = -s * self.by_state[r][state] * weight;
+        for (c, column) in columns.iter_mut().enumerate().take(size) {
+            let (state, weight) = self.makes[c];
+            let factor = s * weight;
+            for r in 0..size {
+                column[r] = factor * self.by_state[r][state];
             }
-            matrix[r][r] += 1.0;
         }
         for (j, slot) in self.slots.iter().enumerate() {
             let (entries, count) = (slot.entries, slot.law.count);
             for k in 0..count {
                 for m in 0..count {
-                    matrix[entries[k]][entries[m]] -= s * self.blocks[j][k][m];
+                    columns[entries[m]][entries[k]] += s * self.blocks[j][k][m];
                 }
             }
+        }
+        columns
+    }
+
+    /// `I - s J` as one matrix by row (its first `size` rows and columns), for a
+    /// Jacobian not [`Jacobian::worth_structure`].
+    pub(super) fn implicit_matrix<const N: usize>(&self, s: f64) -> [[f64; N]; N] {
+        let columns = self.scaled_columns::<N>(s);
+        let mut matrix = [[0.0; N]; N];
+        let size = self.size().min(N);
+        for r in 0..size {
+            for c in 0..size {
+                matrix[r][c] = -columns[c][r];
+            }
+            matrix[r][r] += 1.0;
         }
         matrix
     }
