@@ -450,15 +450,20 @@ impl SlidingStep<'_> {
 /// point tried that is past it, or `None` once the largest is bracketed within
 /// `resolution`.
 ///
-/// The ends first: a value that falls from an end of the window (as a group's does that
-/// starts at its limit and moves away) is largest there, which two values show. Otherwise
-/// the peak is inside, and Brent's search brackets it: a parabola through the three best
-/// points so far proposes the next, a golden section where it would not shrink the
-/// bracket fast enough. Near a smooth peak the parabolas converge superlinearly. Either
-/// way a handful of values (each an accurate substep) do what a golden section did in
-/// thirty.
+/// The ends first: a value that falls from an end of the window to just inside it and to
+/// the point where the search inside would start (as a group's does that starts at its
+/// limit and moves away) is largest there, which three values show. Otherwise the peak
+/// is inside, and Brent's search brackets it: a parabola through the three best points
+/// so far proposes the next, a golden section where it would not shrink the bracket fast
+/// enough. Near a smooth peak the parabolas converge superlinearly. Either way a handful
+/// of values (each an accurate substep) do what a golden section did in thirty.
 fn largest_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolution: f64) -> Option<f64> {
     let (lo, hi) = window;
+    let inner = lo + GOLDEN * (hi - lo);
+    let start = (inner, value(inner));
+    if start.1 > EVENT_TOLERANCE {
+        return Some(start.0);
+    }
     let nudge = resolution.min(0.25 * (hi - lo));
     for (end, inward) in [(lo, nudge), (hi, -nudge)] {
         let at_end = value(end);
@@ -469,24 +474,30 @@ fn largest_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolutio
         if inside > EVENT_TOLERANCE {
             return Some(end + inward);
         }
-        if inside <= at_end {
+        if inside <= at_end && start.1 <= at_end {
             return None;
         }
     }
-    peak_past(value, window, resolution)
+    peak_past(value, window, resolution, start)
 }
 
-/// [`largest_past`] with the peak inside `window`: Brent's search.
-fn peak_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolution: f64) -> Option<f64> {
-    /// The smaller golden-section fraction, `(3 - sqrt 5) / 2`.
-    const GOLDEN: f64 = 0.381_966_011_250_105_1;
+/// The smaller golden-section fraction, `(3 - sqrt 5) / 2`.
+const GOLDEN: f64 = 0.381_966_011_250_105_1;
+
+/// [`largest_past`] with the peak inside `window`: Brent's search, from the point `start`
+/// and its value.
+fn peak_past(
+    mut value: impl FnMut(f64) -> f64,
+    window: (f64, f64),
+    resolution: f64,
+    start: (f64, f64),
+) -> Option<f64> {
     /// At most this many values: a safeguard, the bracket shrinks by the golden ratio
     /// at least every other one.
     const MOST_VALUES: usize = 80;
     let (mut lo, mut hi) = window;
     // The best point so far, the second best, and the one before it, with their values.
-    let mut best = lo + GOLDEN * (hi - lo);
-    let mut best_value = value(best);
+    let (mut best, mut best_value) = start;
     let (mut second, mut second_value) = (best, best_value);
     let (mut third, mut third_value) = (best, best_value);
     // The last move, and the one before it.
@@ -615,7 +626,8 @@ mod tests {
     }
 
     /// The largest value at an end of the window (the value still rising there) is
-    /// bracketed there too.
+    /// bracketed there too; a value that falls from an end and then peaks inside is
+    /// searched inside.
     #[test]
     fn a_peak_at_the_window_end_is_bracketed() {
         for (window, rising) in [((0.0, 1.0), 1.0), ((0.2, 0.4), -1.0)] {
@@ -630,5 +642,10 @@ mod tests {
         let touching = |tau: f64| -1e-9 + 1e-8 * tau;
         let at = largest_past(touching, (0.0, 1.0), 1e-6).expect("past the tolerance near the end");
         assert!(touching(at) > EVENT_TOLERANCE);
+        // Falling from the start, and then a peak inside past the tolerance: found.
+        let dip_then_peak = |tau: f64| -1e-10 - 1e-8 * tau + 5e-9 * (-((tau - 0.4) / 0.15f64).powi(2)).exp();
+        assert!(dip_then_peak(1e-6) < dip_then_peak(0.0));
+        let at = largest_past(dip_then_peak, (0.0, 1.0), 1e-6).expect("the peak inside");
+        assert!(dip_then_peak(at) > EVENT_TOLERANCE);
     }
 }
