@@ -460,9 +460,9 @@ impl SlidingStep<'_> {
 fn largest_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolution: f64) -> Option<f64> {
     let (lo, hi) = window;
     let inner = lo + GOLDEN * (hi - lo);
-    let start = (inner, value(inner));
-    if start.1 > EVENT_TOLERANCE {
-        return Some(start.0);
+    let inner_value = value(inner);
+    if inner_value > EVENT_TOLERANCE {
+        return Some(inner);
     }
     let nudge = resolution.min(0.25 * (hi - lo));
     for (end, inward) in [(lo, nudge), (hi, -nudge)] {
@@ -474,11 +474,11 @@ fn largest_past(mut value: impl FnMut(f64) -> f64, window: (f64, f64), resolutio
         if inside > EVENT_TOLERANCE {
             return Some(end + inward);
         }
-        if inside <= at_end && start.1 <= at_end {
+        if inside <= at_end && inner_value <= at_end {
             return None;
         }
     }
-    peak_past(value, window, resolution, start)
+    peak_past(value, window, resolution, (inner, inner_value))
 }
 
 /// The smaller golden-section fraction, `(3 - sqrt 5) / 2`.
@@ -503,10 +503,8 @@ fn peak_past(
     // The last move, and the one before it.
     let (mut moved, mut moved_before) = (0.0_f64, 0.0_f64);
     let tolerance = 0.25 * resolution;
+    // Every value is below the tolerance: one past it ends the search where it is had.
     for _ in 0..MOST_VALUES {
-        if best_value > EVENT_TOLERANCE {
-            return Some(best);
-        }
         let middle = 0.5 * (lo + hi);
         if (best - middle).abs() <= 2.0 * tolerance - 0.5 * (hi - lo) {
             return None;

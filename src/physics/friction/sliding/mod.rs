@@ -307,8 +307,8 @@ impl Slot {
 /// makes them once, not at every step and every output.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SlidingSlots {
-    /// The bits of the limits and each direction's relaxation rate they were made for
-    /// (for a layout of the model's states: [`Layout::states`], zero before the first).
+    /// The bits of the limits and of each direction's relaxation rate they were made for
+    /// (the layout itself is made for the model's states, [`Layout::states`]).
     made_for: [u64; 2 * Direction::COUNT],
     layout: Layout,
     slots: [Slot; Group::COUNT * MAX_BRANCHES],
@@ -807,6 +807,23 @@ impl<'a> SlidingStep<'a> {
     }
 }
 
+/// Adds to `change` (by direction) what a damped group's limit does to its force: where
+/// the sticking force `trial` is outside the ellipse (`utilisation > 1`), the closest
+/// point of the ellipse less the trial.
+fn add_damper_force_change(
+    input: &GroupInput,
+    trial: &Members,
+    utilisation: f64,
+    change: &mut [f64; Direction::COUNT],
+) {
+    if utilisation > 1.0 {
+        let force = input.closest_point(trial, utilisation);
+        for m in input.members() {
+            change[input.direction[m]] += force[m] - trial[m];
+        }
+    }
+}
+
 /// What deciding the modes at a step's start found.
 struct Decided {
     /// Every group sticks strictly inside its limit.
@@ -885,13 +902,8 @@ impl<'a> SlidingStep<'a> {
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
                 inside &= utilisation < 1.0;
-                if let Some(change) = damper_changes.as_deref_mut()
-                    && utilisation > 1.0
-                {
-                    let force = input.closest_point(&trial, utilisation);
-                    for m in input.members() {
-                        change[input.direction[m]] += force[m] - trial[m];
-                    }
+                if let Some(change) = damper_changes.as_deref_mut() {
+                    add_damper_force_change(&input, &trial, utilisation, change);
                 }
                 utilisation > 1.0
             } else {
@@ -943,13 +955,7 @@ impl<'a> SlidingStep<'a> {
                 continue;
             }
             let trial = input.sticking_force();
-            let utilisation = input.utilisation(&trial);
-            if utilisation > 1.0 {
-                let force = input.closest_point(&trial, utilisation);
-                for m in input.members() {
-                    change[input.direction[m]] += force[m] - trial[m];
-                }
-            }
+            add_damper_force_change(&input, &trial, input.utilisation(&trial), &mut change);
         }
         change
     }
