@@ -262,6 +262,13 @@ impl Friction {
         self.together
     }
 
+    /// Whether the sticking check takes a step from the current branches. A step that
+    /// starts with a branch sliding (on its limit, apart from its element) goes to the
+    /// sliding path, which decides at the step's load whether it sticks, and where.
+    pub fn may_stick_throughout(&self) -> bool {
+        self.together || !self.state.any_sliding()
+    }
+
     /// `1 / limit` at `load` by direction for the elements the model has, zero for the
     /// others; `None` if one of their limits is zero (or too small to invert): that
     /// direction is frictionless and its branches carry no force, which only the law of

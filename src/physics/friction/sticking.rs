@@ -219,7 +219,7 @@ impl Friction {
         // short against the dynamics; a longer step is bounded part by part, or goes to
         // the event-locating path. (Undriven elements under held inputs are bounded
         // exactly, at any step size.)
-        if !self.together && self.state.any_sliding() {
+        if !self.may_stick_throughout() {
             return false;
         }
         let held = step.held;

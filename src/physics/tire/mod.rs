@@ -563,16 +563,30 @@ impl Tire {
             ContactMode::Rolling => &mut self.rolling,
             ContactMode::LiftedOff => &mut self.lifted_off,
         };
-        if let Some(point) = point {
-            // Invalid until made: a refused step must not leave a half-made map behind.
-            self.step_made_for = StepKey::NONE;
-            system.make_step_map(point, h);
-        }
-        let (state_space, map, blocks) = system.at_step_map_point();
+        // A step that starts with a branch sliding does not stick throughout: the sliding
+        // path takes it from the system at its point, and its step map is not made.
+        let starts_sliding =
+            mode == ContactMode::Rolling && self.friction.as_ref().is_some_and(|f| !f.may_stick_throughout());
+        let (state_space, linear_map) = match point {
+            Some(point) if starts_sliding => (system.at(point), None),
+            _ => {
+                if let Some(point) = point {
+                    // Invalid until made: a refused step must not leave a half-made map behind.
+                    self.step_made_for = StepKey::NONE;
+                    system.make_step_map(point, h);
+                }
+                let (state_space, map, blocks) = system.at_step_map_point();
+                (state_space, Some((map, blocks)))
+            }
+        };
+        let map_made = linear_map.is_some();
         let (u0, du) = (&self.driving, &self.driving_rates);
         let rate = |input: Input| self.input_rates[input as usize];
         let driving_held = rate(Input::Vy) == 0.0 && rate(Input::SteerRate) == 0.0 && rate(Input::Vsx) == 0.0;
-        let mut next_states = map.advance(&self.states, u0, ramping.then_some(du));
+        let mut next_states = match linear_map {
+            Some((map, _)) => map.advance(&self.states, u0, ramping.then_some(du)),
+            None => self.states,
+        };
         let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
         // States past the model's count stay zero; held inputs stay as they were set.
         if !finite(&next_states.as_slice()[..state_space.states]) {
@@ -596,18 +610,20 @@ impl Tire {
                 ContactMode::Rolling => {
                     let parameters = &self.parameters;
                     friction.prepare(made_for, state_space, || Limits::at(parameters, load));
-                    let linear = LinearStep {
-                        system: state_space,
-                        blocks,
-                        transition: &map.transition,
-                        start: &self.states,
-                        end: &next_states,
-                        inputs: u0,
-                        input_rates: du,
-                        held: driving_held,
-                        h,
-                    };
-                    if !friction.sticking_step(&linear) {
+                    let sticks = linear_map.is_some_and(|(map, blocks)| {
+                        friction.sticking_step(&LinearStep {
+                            system: state_space,
+                            blocks,
+                            transition: &map.transition,
+                            start: &self.states,
+                            end: &next_states,
+                            inputs: u0,
+                            input_rates: du,
+                            held: driving_held,
+                            h,
+                        })
+                    });
+                    if !sticks {
                         let limits = friction.limits();
                         // Each branch by itself where they move on their own (RLT under
                         // held inputs); otherwise, or if that gives up, all together.
@@ -651,7 +667,9 @@ impl Tire {
         let shaped_by_limits = sliding && self.friction.as_ref().is_some_and(Friction::damped);
         self.outputs = (!ramping && !shaped_by_limits).then(|| state_space.outputs(&next_states, u0));
         self.hybrid.valid = false;
-        self.step_made_for = made_for;
+        if map_made {
+            self.step_made_for = made_for;
+        }
         self.states = next_states;
         if ramping {
             self.inputs = next_inputs;

@@ -21,10 +21,10 @@
 //!
 //! The products `phi_k(X) v` are Taylor series of matrix-vector products, summed to
 //! below the tolerance; one series of powers `X^j v` serves every phi-function of the
-//! same `v`. `X` is made dense once, in arrays of the entries' size (at most twelve), so
-//! that a product is a short loop of known length. A substep whose series would be long
-//! (`X` large: a stiff slide, which the linearly implicit method takes) is not taken this
-//! way.
+//! same `v`. `X` is made dense once, in arrays of the entries' size rounded up to even
+//! (at most twelve), so that a product is a short loop of known length. A substep whose
+//! series would be long (`X` large: a stiff slide, which the linearly implicit method
+//! takes) is not taken this way.
 //!
 //! The event values at `U2` and `U3` are checked as the midpoint rows check their
 //! samples ([`super::events::InteriorSearch`]): a group near its limit anywhere in the
@@ -151,8 +151,10 @@ impl SlidingStep<'_> {
     ) -> Exponential {
         match self.size() {
             0..=4 => self.exponential_substep_for::<4>(t, z, start, length, modes, look_inside),
-            5..=8 => self.exponential_substep_for::<8>(t, z, start, length, modes, look_inside),
-            9..=12 => self.exponential_substep_for::<12>(t, z, start, length, modes, look_inside),
+            5..=6 => self.exponential_substep_for::<6>(t, z, start, length, modes, look_inside),
+            7..=8 => self.exponential_substep_for::<8>(t, z, start, length, modes, look_inside),
+            9..=10 => self.exponential_substep_for::<10>(t, z, start, length, modes, look_inside),
+            11..=12 => self.exponential_substep_for::<12>(t, z, start, length, modes, look_inside),
             _ => self.exponential_substep_for::<SIZE>(t, z, start, length, modes, look_inside),
         }
     }
