@@ -24,6 +24,9 @@ fn at_event(value: f64) -> bool {
 
 /// Newton steps that may settle a predicted crossing missed by a little.
 const SETTLE_STEPS: usize = 3;
+/// How far within the tolerance the second-order term of a settling step's Taylor
+/// polynomial is to be ([`SlidingStep::short_step`]): its rate of change is an estimate.
+const TAYLOR_MARGIN: f64 = 4.0;
 
 /// Every group and branch of a friction with `branches` branches.
 fn candidates(branches: usize) -> impl Iterator<Item = (usize, usize)> {
@@ -268,15 +271,16 @@ impl SlidingStep<'_> {
     /// Where the predicted crossing of group `g`, branch `i` is reached, at `z` (the end of
     /// the substep) or a little from it (the substep ended just short of it or just past
     /// it): short steps on (or back), by Newton's method on its event value, each taken
-    /// only where its error estimate is within the tolerance. The time from `t` (within
-    /// `room`: back by less than the first, on by less than the second) and the state
-    /// there, if it is reached with no other `candidate` group past its tolerance.
+    /// only where its error estimate is within the tolerance (`rate_change`: how fast the
+    /// rates changed over the substep, per second). The time from `t` (within `room`: back
+    /// by less than the first, on by less than the second) and the state there, if it is
+    /// reached with no other `candidate` group past its tolerance.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn settle_on_event(
         &self,
         t: f64,
         z: &Vector,
-        (rates, events): (&Vector, &Events),
+        (rates, events, rate_change): (&Vector, &Events, &Vector),
         (g, i): (usize, usize),
         modes: &Modes,
         (back, on): (f64, f64),
@@ -300,7 +304,7 @@ impl SlidingStep<'_> {
             if !(moved + dt > -back && moved + dt < on) {
                 return None;
             }
-            z_at = self.short_step(t + moved, &z_at, &rates_at, dt, modes)?;
+            z_at = self.short_step(t + moved, &z_at, (&rates_at, rate_change), dt, modes)?;
             moved += dt;
             (rates_at, events_at) = self.rates(t + moved, &z_at, modes);
         }
@@ -319,13 +323,31 @@ impl SlidingStep<'_> {
             .find(|&(h, j)| (h, j) != (g, i) && candidate(h, j) && events[h][j] > EVENT_TOLERANCE)
     }
 
-    /// A step of `dt` seconds (either way) from `z` with its `rates` by Heun's method,
-    /// if its difference from Euler's (the error of the cruder) is within the tolerance.
-    fn short_step(&self, t: f64, z: &Vector, rates: &Vector, dt: f64, modes: &Modes) -> Option<Vector> {
+    /// A step of `dt` seconds (either way) from `z` with its `rates`, which change at about
+    /// `rate_change` per second. A step to a predicted crossing misses it by a few parts
+    /// in 1e4 of its length, so the step back or on is that short: its Taylor polynomial
+    /// to second order, with no evaluation, where even the second-order term is a
+    /// fraction of the tolerance (so that neither its estimate nor the terms past it
+    /// matter). Otherwise by Heun's method, if its difference from Euler's (the error of
+    /// the cruder) is within the tolerance.
+    fn short_step(
+        &self,
+        t: f64,
+        z: &Vector,
+        (rates, rate_change): (&Vector, &Vector),
+        dt: f64,
+        modes: &Modes,
+    ) -> Option<Vector> {
         let size = self.size();
-        let mut euler = *z;
+        let (mut euler, mut taylor) = (*z, *z);
         for c in 0..size {
             euler[c] += dt * rates[c];
+            taylor[c] = euler[c] + 0.5 * dt * dt * rate_change[c];
+        }
+        if TAYLOR_MARGIN * self.error_ratio(z, &taylor, &euler) <= 1.0
+            && taylor[..size].iter().all(|v| v.is_finite())
+        {
+            return Some(taylor);
         }
         let (end_rates, _) = self.rates(t + dt, &euler, modes);
         let mut heun = *z;

@@ -698,10 +698,14 @@ impl<'a> SlidingStep<'a> {
                 {
                     return None;
                 }
+                let mut rate_change = [0.0; SIZE];
+                for c in 0..self.size() {
+                    rate_change[c] = (end_rates[c] - start_rates[c]) / length;
+                }
                 self.settle_on_event(
                     t + length,
                     &z_end,
-                    (&end_rates, &end_events),
+                    (&end_rates, &end_events, &rate_change),
                     (g, i),
                     &modes,
                     (length, h - t - length),
