@@ -72,27 +72,43 @@ pub(super) enum Exponential {
 
 /// `X = H J` made dense in `E` x `E` arrays (`E` at least the entries in use; the rows
 /// and columns past them zero), and what its series need.
-struct Linearisation<const E: usize> {
+pub(super) struct Linearisation<const E: usize> {
     /// By column: a product adds columns, every entry's sum independent of the others'.
-    columns: [[f64; E]; E],
-    length: f64,
+    pub(super) columns: [[f64; E]; E],
+    pub(super) length: f64,
     /// The size of a term's contribution below which it no longer counts.
-    negligible: f64,
+    pub(super) negligible: f64,
 }
 
 impl<const E: usize> Linearisation<E> {
-    fn times(&self, v: &[f64; E]) -> [f64; E] {
-        let mut product = [0.0; E];
-        for (column, &factor) in self.columns.iter().zip(v) {
-            for r in 0..E {
-                product[r] += column[r] * factor;
-            }
+    /// `X = H J` from its columns, for a substep of `length` from a state whose largest
+    /// entry is `largest`, at the deflection scale `scale`.
+    pub(super) fn new(columns: [[f64; E]; E], length: f64, scale: f64, largest: f64) -> Self {
+        Linearisation {
+            columns,
+            length,
+            negligible: negligible_term(scale, largest),
         }
-        product
     }
+}
+
+/// [`LinearPart::negligible`] at the deflection scale `scale`, for a substep from a state
+/// whose largest entry is `largest`.
+pub(super) fn negligible_term(scale: f64, largest: f64) -> f64 {
+    NEGLIGIBLE * (TOLERANCE * scale + ROUNDING * largest)
+}
+
+/// A substep's linear part `X = H J` as its series need it: its product with a vector,
+/// the substep's length, and the size of a term's contribution below which it no longer
+/// counts. Dense ([`Linearisation`]), or in blocks where the entries fall into systems of
+/// their own (`super::cascade`).
+pub(super) trait LinearPart<const E: usize> {
+    fn times(&self, v: &[f64; E]) -> [f64; E];
+    fn length(&self) -> f64;
+    fn negligible(&self) -> f64;
 
     /// `sum_j weights(j)[k] X^j v` for each `k` (`weights(j)[0]` the largest); `None` if the terms do not fall below
-    /// [`Linearisation::negligible`] within [`MAX_TERMS`]. A term ends the series where
+    /// [`LinearPart::negligible`] within [`MAX_TERMS`]. A term ends the series where
     /// its contribution is negligible and the next one is at most half of it (the powers
     /// grow by less than the weights fall), so that the rest is too.
     fn series<const K: usize>(
@@ -119,7 +135,7 @@ impl<const E: usize> Linearisation<E> {
             // The powers grow by `largest / previous_largest` a term, the weights fall by
             // `1 / (j + 2)` or faster.
             let next_at_most_half = largest <= 0.5 * (j + 2) as f64 * previous_largest;
-            if self.length * heaviest * largest <= self.negligible
+            if self.length() * heaviest * largest <= self.negligible()
                 && (j > 0 && next_at_most_half || largest == 0.0)
             {
                 return Some(sums);
@@ -128,6 +144,26 @@ impl<const E: usize> Linearisation<E> {
             power = self.times(&power);
         }
         None
+    }
+}
+
+impl<const E: usize> LinearPart<E> for Linearisation<E> {
+    fn times(&self, v: &[f64; E]) -> [f64; E] {
+        let mut product = [0.0; E];
+        for (column, &factor) in self.columns.iter().zip(v) {
+            for r in 0..E {
+                product[r] += column[r] * factor;
+            }
+        }
+        product
+    }
+
+    fn length(&self) -> f64 {
+        self.length
+    }
+
+    fn negligible(&self) -> f64 {
+        self.negligible
     }
 }
 
@@ -171,73 +207,96 @@ impl SlidingStep<'_> {
     ) -> Exponential {
         let jacobian = self.jacobian(t, z, start_rates, modes);
         let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        let linear = Linearisation {
-            columns: jacobian.scaled_columns::<E>(length),
-            length,
-            negligible: NEGLIGIBLE * (TOLERANCE * self.scale + ROUNDING * largest),
-        };
-        let (z0, f0) = (shortened::<E>(z), shortened::<E>(start_rates));
-        let phi = |k: usize, j: usize| INVERSE_FACTORIAL[j + k];
-        // phi1(X) f and phi1(X/2) f from one series.
-        let Some([whole, half]) = linear.series(&f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]]) else {
-            return Exponential::NotSuited;
-        };
+        let linear = Linearisation::new(jacobian.scaled_columns::<E>(length), length, self.scale, largest);
         let mut search = InteriorSearch::new(start_events);
-        // `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates.
-        let remainder = |u: &Vector, rates: &Vector| {
-            let mut moved = [0.0; E];
-            for c in 0..E {
-                moved[c] = u[c] - z0[c];
-            }
-            let linear_part = linear.times(&moved);
-            let mut d = [0.0; E];
-            for c in 0..E {
-                d[c] = rates[c] - f0[c] - linear_part[c] / length;
-            }
-            d
+        // The stages' rates from the whole coupled vector, their event values sampled.
+        let stage_rates = |stage: usize, u: &[f64; E]| {
+            let mut at = *z;
+            at[..E].copy_from_slice(u);
+            let (rates, events) = self.rates(t + 0.5 * stage as f64 * length, &at, modes);
+            search.sample(stage, 0.5 * length, &events);
+            let near = stage == 2 && look_inside && search.found() != (None, None);
+            (!near).then(|| shortened::<E>(&rates))
         };
-        let mut middle = *z;
-        for c in 0..E {
-            middle[c] += 0.5 * length * half[c];
-        }
-        let (middle_rates, middle_events) = self.rates(t + 0.5 * length, &middle, modes);
-        search.sample(1, 0.5 * length, &middle_events);
-        let d2 = remainder(&middle, &middle_rates);
-        let Some([d2_phi1, d2_phi3, d2_phi4]) = linear.series(&d2, |j| [phi(1, j), phi(3, j), phi(4, j)])
-        else {
+        let Some((fourth, third)) = exprb43(
+            &linear,
+            &shortened::<E>(z),
+            &shortened::<E>(start_rates),
+            stage_rates,
+        ) else {
             return Exponential::NotSuited;
         };
-        let mut end = *z;
-        for c in 0..E {
-            end[c] += length * (whole[c] + d2_phi1[c]);
-        }
-        let (end_rates, end_events) = self.rates(t + length, &end, modes);
-        search.sample(2, 0.5 * length, &end_events);
-        if look_inside && search.found() != (None, None) {
-            return Exponential::NotSuited;
-        }
-        let d3 = remainder(&end, &end_rates);
-        let Some([d3_phi3, d3_phi4]) = linear.series(&d3, |j| [phi(3, j), phi(4, j)]) else {
-            return Exponential::NotSuited;
-        };
-        let mut fourth = *z;
-        let mut third = *z;
-        for c in 0..E {
-            third[c] += length * (whole[c] + 16.0 * d2_phi3[c] - 2.0 * d3_phi3[c]);
-            fourth[c] = third[c] + length * (12.0 * d3_phi4[c] - 48.0 * d2_phi4[c]);
-        }
-        if !fourth.iter().all(|v| v.is_finite()) {
-            return Exponential::NotSuited;
-        }
-        // The third-order solution's error ~ length^4: aim at a third of the tolerance.
-        let error = self.error_ratio(z, &fourth, &third) / ESTIMATE_MARGIN;
-        if error <= 1.0 {
-            let growth = 0.9 * (3.0 * error).max(1e-10).powf(-0.25);
-            Exponential::Taken(fourth, growth.clamp(0.2, 4.0))
-        } else {
-            Exponential::TooLong
+        let (mut fourth_whole, mut third_whole) = (*z, *z);
+        fourth_whole[..E].copy_from_slice(&fourth);
+        third_whole[..E].copy_from_slice(&third);
+        match resize(self.error_ratio(z, &fourth_whole, &third_whole)) {
+            (true, growth) => Exponential::Taken(fourth_whole, growth),
+            (false, _) => Exponential::TooLong,
         }
     }
+}
+
+/// Whether a substep whose embedded estimate is `error_ratio` times the tolerance is
+/// taken, and the factor by which the next (or the one tried again) is to be longer. The
+/// estimate is the third-order solution's error (~ length^4); it aims at a third of the
+/// tolerance.
+pub(super) fn resize(error_ratio: f64) -> (bool, f64) {
+    let error = error_ratio / ESTIMATE_MARGIN;
+    let factor = 0.9 * (3.0 * error).max(1e-10).powf(-0.25);
+    if error <= 1.0 {
+        (true, factor.clamp(0.2, 4.0))
+    } else {
+        (false, factor.clamp(0.2, 0.9))
+    }
+}
+
+/// One exprb43 substep of `X = H J` ([`Linearisation`]) from `z` with its rates `f0`
+/// (see the module's doc): the fourth-order solution and the embedded third-order one,
+/// or `None` where a series would be long, a value is not finite, or `stage_rates`
+/// gives up. `stage_rates(k, u)` gives the rates at `U2` (`k = 1`, half the substep on)
+/// and at `U3` (`k = 2`, its end).
+pub(super) fn exprb43<const E: usize>(
+    linear: &impl LinearPart<E>,
+    z: &[f64; E],
+    f0: &[f64; E],
+    mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
+) -> Option<([f64; E], [f64; E])> {
+    let length = linear.length();
+    let phi = |k: usize, j: usize| INVERSE_FACTORIAL[j + k];
+    // phi1(X) f and phi1(X/2) f from one series.
+    let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
+    // `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates.
+    let remainder = |u: &[f64; E], rates: &[f64; E]| {
+        let mut moved = [0.0; E];
+        for c in 0..E {
+            moved[c] = u[c] - z[c];
+        }
+        let linear_part = linear.times(&moved);
+        let mut d = [0.0; E];
+        for c in 0..E {
+            d[c] = rates[c] - f0[c] - linear_part[c] / length;
+        }
+        d
+    };
+    let mut middle = *z;
+    for c in 0..E {
+        middle[c] += 0.5 * length * half[c];
+    }
+    let d2 = remainder(&middle, &stage_rates(1, &middle)?);
+    let [d2_phi1, d2_phi3, d2_phi4] = linear.series(&d2, |j| [phi(1, j), phi(3, j), phi(4, j)])?;
+    let mut end = *z;
+    for c in 0..E {
+        end[c] += length * (whole[c] + d2_phi1[c]);
+    }
+    let d3 = remainder(&end, &stage_rates(2, &end)?);
+    let [d3_phi3, d3_phi4] = linear.series(&d3, |j| [phi(3, j), phi(4, j)])?;
+    let mut fourth = *z;
+    let mut third = *z;
+    for c in 0..E {
+        third[c] += length * (whole[c] + 16.0 * d2_phi3[c] - 2.0 * d3_phi3[c]);
+        fourth[c] = third[c] + length * (12.0 * d3_phi4[c] - 48.0 * d2_phi4[c]);
+    }
+    fourth.iter().all(|v| v.is_finite()).then_some((fourth, third))
 }
 
 #[cfg(test)]

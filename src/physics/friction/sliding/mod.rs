@@ -29,13 +29,19 @@
 //! The result is a function of the states, inputs and step size only (nothing is carried
 //! from one step to the next), so a restored FMU state continues bit-identically.
 //!
+//! Where the groups form a cascade (DDT: the yaw branches drive the lateral ones and
+//! nothing drives them) and none changes mode, [`cascade`] takes the step first: the
+//! drivers in closed form, the driven groups by one exponential integration of their
+//! own.
+//!
 //! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep,
 //! and the extrapolated one; [`exponential`]: the exponential one;
 //! [`implicit`]: one substep of a stiff piece; [`events`]: where within a substep a group
-//! changes mode.
+//! changes mode; [`cascade`]: the cascade's step.
 
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
+mod cascade;
 mod events;
 mod exponential;
 mod extrapolation;
@@ -566,9 +572,10 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
-    /// of the step. Explicitly first; a step the explicit method cannot finish (a stiff
-    /// slide) is taken again from its start by the linearly implicit method, and one whose
-    /// sliding groups move their forces within a fraction of the step (as
+    /// of the step. By the cascade where it takes the step ([`cascade`]); otherwise
+    /// explicitly first. A step the explicit method cannot finish (a stiff slide) is
+    /// taken again from its start by the linearly implicit method, and one whose sliding
+    /// groups move their forces within a fraction of the step (as
     /// [`SlidingStep::prepare`] found them) is taken by it from the start.
     pub fn integrate(
         &self,
@@ -581,6 +588,9 @@ impl<'a> SlidingStep<'a> {
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
+        if !crawls && self.cascade_step(x, sliders, h) {
+            return Ok(());
+        }
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
             return Ok(());
         }

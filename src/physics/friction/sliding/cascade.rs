@@ -1,0 +1,458 @@
+//! A step with sliding taken group by group where the groups form a cascade (DDT):
+//! some elements are driven by the inputs alone and their branches are groups of one
+//! member (the yaw deflection's), the others are driven by the inputs and by those
+//! (the lateral deflection by the yaw one, through `vx uPsi`), never the other way.
+//!
+//! - **Drivers.** A one-member group's branch is linear in each mode: sticking,
+//!   `db/dt = A_kk b + c`; sliding on its limit, `Dw db/dt = +-L - K b`. Under held
+//!   inputs its deflection is `b(t) = b0 + t phi1(mu t) r0` (its start rate `r0`, `mu`
+//!   the mode's rate), exact, and its element's state, the weighted sum, is
+//!   `U0 + R_stick q_stick(t) + R_slide q_slide(t)` with `q(t) = t phi1(mu t)`.
+//! - **Driven groups.** Each depends on the drivers only through that sum, and on no
+//!   other driven group: its rates are its members' deflections' and the two `q`s',
+//!   which follow `dq/dt = 1 + mu q`. So the driven groups and the `q`s (ten entries at
+//!   most, where the whole system has twelve) are stepped together by exprb43
+//!   ([`super::exponential::exprb43`]), whose linear part is a few small blocks: each
+//!   group's own two by two, its column for each `q`, and each `q`'s `mu`. The `q`s are
+//!   linear, so the substep carries them exactly. The groups are evaluated side by side,
+//!   so that their projections' Newton steps overlap.
+//!
+//! This takes the usual step: every group keeps its mode throughout. A driver's event
+//! value follows its deflection, which moves monotonically, so its values at the ends
+//! decide; a driven group's are sampled at the substeps' stages as the whole system's
+//! exponential substep samples them. Where a group is near its event, or the driven
+//! groups need more substeps than a step should, the whole-system path takes the step
+//! from its start ([`super::SlidingStep::integrate`]).
+
+use super::events::{InteriorSearch, NEAR_EVENT};
+use super::exponential::{LinearPart, exprb43, negligible_term, resize};
+use super::extrapolation::{ROUNDING, TOLERANCE};
+use super::{Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SliderState, SlidingStep, Slot, Vector};
+use crate::physics::friction::group::{
+    GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
+};
+use crate::physics::state_space::{DrivingVector, StateVector};
+
+/// The driven groups' vector: each group's members' deflections (one group a branch),
+/// then `q_stick` and `q_slide`, which every driven group reads.
+const DRIVEN: usize = MAX_MEMBERS * MAX_BRANCHES + 2;
+type Driven = [f64; DRIVEN];
+/// Where `q_stick` and `q_slide` sit.
+const Q: [usize; 2] = [DRIVEN - 2, DRIVEN - 1];
+
+/// Where member `m` of driven group `n` sits.
+fn entry(n: usize, m: usize) -> usize {
+    n * MAX_MEMBERS + m
+}
+
+/// Exponential substeps the driven groups may take in one step before the whole-system
+/// path takes the step.
+const MAX_SUBSTEPS: usize = 8;
+
+/// The cascade of one step: which slots drive and which are driven, and the drivers'
+/// element state.
+struct Cascade {
+    drivers: [usize; MAX_TOGETHER],
+    driver_count: usize,
+    driven: [usize; MAX_TOGETHER],
+    driven_count: usize,
+    driver_state: Option<usize>,
+}
+
+/// The drivers' element state over the step: `U0 + R . q(t)`, with each mode's rate `mu`.
+#[derive(Clone, Copy, Debug, Default)]
+struct DriverSum {
+    start: f64,
+    by_mode: [f64; 2],
+    rate: [f64; 2],
+}
+
+/// Whether a group's event value keeps it clear of its event (as a sample of the whole
+/// system's exponential substep must be, [`NEAR_EVENT`]); not a NaN.
+fn clear(event: f64) -> bool {
+    event <= -NEAR_EVENT
+}
+
+/// `t phi1(mu t) = (exp(mu t) - 1) / mu`, and `t` where `mu = 0`.
+fn q_at(mu: f64, t: f64) -> f64 {
+    let x = mu * t;
+    if x == 0.0 { t } else { t * x.exp_m1() / x }
+}
+
+impl SlidingStep<'_> {
+    /// The step of `h` seconds group by group (see the module's doc): true with `x` and
+    /// `sliders` at its end, false (both unchanged) where it is left to the whole-system
+    /// path.
+    pub(super) fn cascade_step(&self, x: &mut StateVector, sliders: &mut SliderState, h: f64) -> bool {
+        let Some(cascade) = self.cascade() else {
+            return false;
+        };
+        let (z, modes) = (self.layout.pack(x, sliders), sliders.sliding);
+        let states = self.layout.model_states(&z);
+        let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let made = self.layout.made_states();
+        let slots = self.slots();
+        let mut end = z;
+        // Drivers, in closed form; their weighted sum's terms by mode.
+        let mut sum = DriverSum::default();
+        if let Some(state) = cascade.driver_state {
+            sum.start = states[state];
+        }
+        let mut rate_set = [false; 2];
+        for &j in &cascade.drivers[..cascade.driver_count] {
+            let slot = &slots[j];
+            let sliding = modes[slot.group][slot.branch];
+            let entry = slot.entries[0];
+            let start = self.driver_output(slot, z[entry], sliding);
+            let mu = if sliding {
+                -slot.law.stiffness[0] / slot.law.damping[0]
+            } else {
+                slot.relaxation[0]
+            };
+            let mode = usize::from(sliding);
+            // One rate per mode: the branches' `K / Dw` and relaxation are their element's.
+            if rate_set[mode] && sum.rate[mode] != mu {
+                return false;
+            }
+            (sum.rate[mode], rate_set[mode]) = (mu, true);
+            sum.by_mode[mode] += made[entry].1 * start.rate[0];
+            end[entry] = z[entry] + q_at(mu, h) * start.rate[0];
+            let finish = self.driver_output(slot, end[entry], sliding);
+            // The deflection moves monotonically, so the force sticking needs (affine in
+            // it) is largest in size at an end: sticking, the ends' event values bound it.
+            // Sliding, its limit's side must stay the same too, or it passed inside.
+            let same_side = !sliding || start.force[0] * finish.force[0] > 0.0;
+            if !(clear(start.event) && clear(finish.event) && same_side) {
+                return false;
+            }
+        }
+        let Some(driven) = self.driven_step(&cascade, &z, &modes, &sum, (h, largest)) else {
+            return false;
+        };
+        for (n, &j) in cascade.driven[..cascade.driven_count].iter().enumerate() {
+            let slot = &slots[j];
+            for m in slot.law.members() {
+                end[slot.entries[m]] = driven[entry(n, m)];
+            }
+        }
+        self.hold_on_limits(&mut end, &modes);
+        *x = self.layout.unpack(&end, sliders);
+        sliders.sliding = modes;
+        true
+    }
+
+    /// The cascade of this step's slots, if they form one (see the module's doc) and the
+    /// step suits it: damped groups, no free states, held inputs.
+    fn cascade(&self) -> Option<Cascade> {
+        let layout = &self.layout;
+        if layout.free_count != 0 || !self.friction.damped() || self.input_rates != DrivingVector::zeros() {
+            return None;
+        }
+        let a = &self.system.a;
+        let only_own = |k: usize| (0..layout.states).all(|l| l == k || a[(k, l)] == 0.0);
+        let mut cascade = Cascade {
+            drivers: [0; MAX_TOGETHER],
+            driver_count: 0,
+            driven: [0; MAX_TOGETHER],
+            driven_count: 0,
+            driver_state: None,
+        };
+        for (j, slot) in self.slots().iter().enumerate() {
+            let state = slot.states[0];
+            if slot.law.count == 1 && slot.law.damped() && only_own(state) {
+                if cascade.driver_state.is_some_and(|s| s != state) {
+                    return None;
+                }
+                cascade.driver_state = Some(state);
+                cascade.drivers[cascade.driver_count] = j;
+                cascade.driver_count += 1;
+            } else {
+                cascade.driven[cascade.driven_count] = j;
+                cascade.driven_count += 1;
+            }
+        }
+        if cascade.driven_count > MAX_BRANCHES {
+            return None;
+        }
+        // A driven member's rate moves with its own state and the drivers' only.
+        for &j in &cascade.driven[..cascade.driven_count] {
+            let slot = &self.slots()[j];
+            for m in slot.law.members() {
+                let k = slot.states[m];
+                let other =
+                    (0..layout.states).any(|l| l != k && Some(l) != cascade.driver_state && a[(k, l)] != 0.0);
+                if other {
+                    return None;
+                }
+            }
+        }
+        Some(cascade)
+    }
+
+    /// A driver's group output at deflection `b` in its mode: its sticking rate is its
+    /// element's equation with `b` in place of the state, `A_kk b + c`.
+    fn driver_output(&self, slot: &Slot, b: f64, sliding: bool) -> GroupOutput {
+        let mut input = GroupInput::at_rest(&slot.law);
+        input.deflection[0] = b;
+        input.sticking_rate[0] = slot.relaxation[0] * b + self.drive(slot.states[0]);
+        input.evaluate(sliding)
+    }
+
+    /// The inputs' part of state `k`'s rate, `(B u)_k`.
+    fn drive(&self, k: usize) -> f64 {
+        (0..self.inputs.len())
+            .map(|j| self.system.b[(k, j)] * self.inputs[j])
+            .sum()
+    }
+
+    /// The driven groups over the step, side by side, by exprb43 substeps of one length
+    /// ([`DrivenLinearPart`]): the driven vector at the end, or `None` if a group nears
+    /// its event or they need more than [`MAX_SUBSTEPS`].
+    fn driven_step(
+        &self,
+        cascade: &Cascade,
+        z: &Vector,
+        modes: &Modes,
+        sum: &DriverSum,
+        (h, largest): (f64, f64),
+    ) -> Option<Driven> {
+        let slots = self.slots();
+        let driven = &cascade.driven[..cascade.driven_count];
+        let a = &self.system.a;
+        // By driven group and member: the inputs' part of its sticking rate, and its
+        // coupling to the drivers' state.
+        let mut drive = [[0.0; MAX_MEMBERS]; MAX_BRANCHES];
+        let mut coupling = [[0.0; MAX_MEMBERS]; MAX_BRANCHES];
+        for (n, &j) in driven.iter().enumerate() {
+            let slot = &slots[j];
+            for m in slot.law.members() {
+                let k = slot.states[m];
+                drive[n][m] = self.drive(k);
+                coupling[n][m] = cascade.driver_state.map_or(0.0, |s| a[(k, s)]);
+            }
+        }
+        // Every driven group's rates and event value at `w`, evaluated side by side (their
+        // projections' Newton steps overlap), with their inputs there.
+        let evaluate = |w: &Driven| {
+            let driver = sum.start + sum.by_mode[0] * w[Q[0]] + sum.by_mode[1] * w[Q[1]];
+            let mut inputs = [GroupInput::default(); MAX_BRANCHES];
+            let mut sliding = [false; MAX_BRANCHES];
+            for (n, &j) in driven.iter().enumerate() {
+                let slot = &slots[j];
+                inputs[n] = GroupInput::at_rest(&slot.law);
+                for m in slot.law.members() {
+                    let b = w[entry(n, m)];
+                    inputs[n].deflection[m] = b;
+                    inputs[n].sticking_rate[m] =
+                        slot.relaxation[m] * b + drive[n][m] + coupling[n][m] * driver;
+                }
+                sliding[n] = modes[slot.group][slot.branch];
+            }
+            let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
+            let count = driven.len();
+            evaluate_together(&inputs[..count], &sliding[..count], &mut outputs[..count]);
+            let mut rates = [0.0; DRIVEN];
+            let mut events: Events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
+            for (n, &j) in driven.iter().enumerate() {
+                rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&outputs[n].rate);
+                events[slots[j].group][slots[j].branch] = outputs[n].event;
+            }
+            for (mode, &q) in Q.iter().enumerate() {
+                rates[q] = 1.0 + sum.rate[mode] * w[q];
+            }
+            (rates, events, inputs, sliding)
+        };
+        let mut w = [0.0; DRIVEN];
+        for (n, &j) in driven.iter().enumerate() {
+            for m in slots[j].law.members() {
+                w[entry(n, m)] = z[slots[j].entries[m]];
+            }
+        }
+        let (mut t, mut length) = (0.0, h);
+        for _ in 0..MAX_SUBSTEPS {
+            let (rates, events, inputs, sliding) = evaluate(&w);
+            if !events
+                .iter()
+                .flatten()
+                .all(|&event| event == NO_EVENT || clear(event))
+            {
+                return None;
+            }
+            if t >= h {
+                return Some(w);
+            }
+            length = length.min(h - t);
+            let mut linear = DrivenLinearPart {
+                members: [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_BRANCHES],
+                by_q: [[[0.0; MAX_MEMBERS]; 2]; MAX_BRANCHES],
+                q_rates: sum.rate.map(|mu| length * mu),
+                count: driven.len(),
+                length,
+                negligible: negligible_term(self.scale, largest),
+            };
+            for n in 0..driven.len() {
+                let slot = &slots[driven[n]];
+                let rate = [rates[entry(n, 0)], rates[entry(n, 1)]];
+                let slopes = inputs[n].rate_slopes(sliding[n], &rate);
+                for k in slot.law.members() {
+                    for m in slot.law.members() {
+                        linear.members[n][m][k] = length
+                            * (slopes.by_deflection[k][m]
+                                + slopes.by_sticking_rate[k][m] * slot.relaxation[m]);
+                    }
+                    let by_driver: f64 = slot
+                        .law
+                        .members()
+                        .map(|m| slopes.by_sticking_rate[k][m] * coupling[n][m])
+                        .sum();
+                    for mode in 0..2 {
+                        linear.by_q[n][mode][k] = length * by_driver * sum.by_mode[mode];
+                    }
+                }
+            }
+            let mut search = InteriorSearch::new(&events);
+            let stage_rates = |stage: usize, u: &Driven| {
+                let (rates, events, ..) = evaluate(u);
+                search.sample(stage, 0.5 * length, &events);
+                (stage == 1 || search.found() == (None, None)).then_some(rates)
+            };
+            let (fourth, third) = exprb43(&linear, &w, &rates, stage_rates)?;
+            let (taken, factor) =
+                resize(self.driven_error_ratio(&w, (&fourth, &third), driven.len(), largest));
+            if taken {
+                (w, t) = (fourth, t + length);
+            }
+            length *= factor;
+        }
+        None
+    }
+
+    /// The embedded estimate's size against the tolerance over the driven groups'
+    /// deflections, as [`SlidingStep::error_ratio`] takes it over the whole vector.
+    fn driven_error_ratio(
+        &self,
+        w: &Driven,
+        (best, other): (&Driven, &Driven),
+        count: usize,
+        largest: f64,
+    ) -> f64 {
+        let floor = ROUNDING * largest;
+        (0..entry(count, 0))
+            .map(|c| {
+                (best[c] - other[c]).abs()
+                    / (TOLERANCE * (self.scale + w[c].abs().max(best[c].abs())) + floor)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The driven groups' `H J`. Each group's members' rates move with its own deflections
+/// ([`GroupInput::rate_slopes`], through the sticking rates too, with their relaxation)
+/// and with the `q`s (through the drivers' state, `coupling R`); each `q` moves with
+/// itself alone (`mu`). Nothing else: a product is a few small blocks.
+struct DrivenLinearPart {
+    /// By group, by column: `H d rate_k / d b_m`.
+    members: [[Members; MAX_MEMBERS]; MAX_BRANCHES],
+    /// By group and `q`: `H d rate_k / d q`.
+    by_q: [[Members; 2]; MAX_BRANCHES],
+    /// `H mu` by `q`.
+    q_rates: [f64; 2],
+    count: usize,
+    length: f64,
+    negligible: f64,
+}
+
+impl LinearPart<DRIVEN> for DrivenLinearPart {
+    fn times(&self, v: &Driven) -> Driven {
+        let mut product = [0.0; DRIVEN];
+        for n in 0..self.count {
+            for k in 0..MAX_MEMBERS {
+                let mut sum = 0.0;
+                for m in 0..MAX_MEMBERS {
+                    sum += self.members[n][m][k] * v[entry(n, m)];
+                }
+                for (mode, &q) in Q.iter().enumerate() {
+                    sum += self.by_q[n][mode][k] * v[q];
+                }
+                product[entry(n, k)] = sum;
+            }
+        }
+        for (mode, &q) in Q.iter().enumerate() {
+            product[q] = self.q_rates[mode] * v[q];
+        }
+        product
+    }
+
+    fn length(&self) -> f64 {
+        self.length
+    }
+
+    fn negligible(&self) -> f64 {
+        self.negligible
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::super::{SlidingStep, tire_at};
+    use crate::physics::friction::{FrictionLaw, SliderState};
+    use crate::physics::state_space::{DrivingVector, StateVector};
+    use crate::physics::{ModelKind, Parameter, Parameters};
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        /// Where the cascade takes a step, it ends where the whole-system path does (each
+        /// to a relative 1e-12; here within 1e-10 of the largest state or offset), for
+        /// DDT sliding laterally or in both directions with either law, from a slide as
+        /// the tire meets it, over steps of 0.1 to 20 ms; in the same modes.
+        #[test]
+        fn a_cascade_step_ends_where_the_whole_system_path_does(
+            law in prop::sample::select(vec![FrictionLaw::Coulomb, FrictionLaw::Brush]),
+            combined in any::<bool>(),
+            vx in -20.0..20.0f64,
+            load_ratio in 0.2..2.0f64,
+            inputs in prop::array::uniform3(-1.0..1.0f64),
+            states in prop::array::uniform3(-1.5..1.5f64),
+            h in prop::sample::select(vec![1e-4, 1e-3, 5e-3, 2e-2]),
+        ) {
+            let mut p = Parameters::default().with_model(ModelKind::Ddt).with_friction(law);
+            p.set(Parameter::LateralFriction, 0.01).unwrap();
+            if combined {
+                p.set(Parameter::LongitudinalFriction, 0.01).unwrap();
+            }
+            let load = load_ratio * p.get(Parameter::NominalLoad);
+            let (system, mut friction, limits, travel) = tire_at(&p, vx, load);
+            let mut x = StateVector::zeros();
+            for k in 0..3 {
+                x[k] = states[k] * travel;
+            }
+            let mut sliders = SliderState::AT_REST;
+            let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
+            let step = SlidingStep::new(&system, &mut friction, limits, (u, DrivingVector::zeros()), travel);
+            step.prepare(&mut x, &mut sliders);
+            step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
+            step.prepare(&mut x, &mut sliders);
+            let (mut x_cascade, mut sliders_cascade) = (x, sliders);
+            prop_assume!(step.cascade_step(&mut x_cascade, &mut sliders_cascade, h));
+            let (mut x_whole, mut sliders_whole) = (x, sliders);
+            step.integrate_by_current_method(&mut x_whole, &mut sliders_whole, h).expect("a valid step");
+            prop_assert_eq!(sliders_cascade.sliding, sliders_whole.sliding);
+            let values = |x: &StateVector, s: &SliderState| {
+                let mut all: Vec<f64> = x.as_slice()[..3].to_vec();
+                all.extend(s.offsets.iter().flatten());
+                all
+            };
+            let (cascade, whole) = (values(&x_cascade, &sliders_cascade), values(&x_whole, &sliders_whole));
+            let largest = cascade.iter().chain(&whole).fold(travel, |m, v| m.max(v.abs()));
+            for (c, (a, b)) in cascade.iter().zip(&whole).enumerate() {
+                prop_assert!(
+                    (a - b).abs() <= 1e-10 * largest,
+                    "{law:?} combined {combined}, value {c}: {a} vs {b} (largest {largest})"
+                );
+            }
+        }
+    }
+}
