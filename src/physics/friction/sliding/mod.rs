@@ -18,8 +18,9 @@
 //! which is stable at any stiffness. Every step the explicit method finishes is its
 //! result, unchanged. Where the event values and their rates at the start of a substep
 //! predict a crossing within it (a straight line), the substep ends there; if it ends a
-//! little short of the crossing or past it, a few short Heun steps on or back, each
-//! within the tolerance by its own error estimate, reach it. Otherwise, after each
+//! little short of the crossing or past it, a few short steps on or back (a Taylor
+//! polynomial with the rates' change over the substep, or Heun's), each within the
+//! tolerance by its own error estimate, reach it. Otherwise, after each
 //! substep the groups' event values are checked; where one crosses zero, the crossing
 //! time is found by Newton's method on the accurate solution, kept in a bracket by regula
 //! falsi (Illinois). Either way the state is taken there, the group changes mode, and
