@@ -231,7 +231,7 @@ impl SlidingStep<'_> {
     /// whose errors expand in powers of `(length / n)^power`, until two rows agree to the
     /// tolerance; `None` if they do not, or (midpoint rows) as soon as their estimates stop
     /// falling.
-    fn extrapolate<const ROWS: usize>(
+    pub(super) fn extrapolate<const ROWS: usize>(
         &self,
         z: &Vector,
         sequence: &[usize; ROWS],

@@ -589,7 +589,7 @@ impl<'a> SlidingStep<'a> {
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
-        if !crawls && self.cascade_step(x, sliders, h) {
+        if self.cascade_step(x, sliders, h, crawls) {
             return Ok(());
         }
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
