@@ -16,6 +16,11 @@
 //!   group's own two by two, its column for each `q`, and each `q`'s `mu`. The `q`s are
 //!   linear, so the substep carries them exactly. The groups are evaluated side by side,
 //!   so that their projections' Newton steps overlap.
+//! - **A stiff slide** (a stiff tire at a light load, whose groups turn their forces far
+//!   faster than the step): the driven groups by linearly implicit Euler extrapolation,
+//!   as the whole system's stiff substeps, but each Euler step solves each group's own two
+//!   by two, and the `q`s are set in closed form where it ends. The drivers' closed form
+//!   holds at any stiffness.
 //!
 //! This takes the usual step: every group keeps its mode throughout. A driver's event
 //! value follows its deflection, which moves monotonically, so its values at the ends

@@ -32,8 +32,8 @@
 //!
 //! Where the groups form a cascade (DDT: the yaw branches drive the lateral ones and
 //! nothing drives them) and none changes mode, [`cascade`] takes the step first: the
-//! drivers in closed form, the driven groups by one exponential integration of their
-//! own.
+//! drivers in closed form, the driven groups by an integration of their own
+//! (exponential, or linearly implicit for a stiff slide).
 //!
 //! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep,
 //! and the extrapolated one; [`exponential`]: the exponential one;
