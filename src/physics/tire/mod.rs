@@ -365,19 +365,7 @@ impl Tire {
             let mode = ContactMode::from_load(inputs[Input::Fz as usize]);
             return self.contact_system(mode).at(point).outputs(x, &u);
         };
-        let (mut x, mut sliders) = (*x, *sliders);
-        let change = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
-        let mut y = step.system.outputs(&x, &u);
-        for (d, element) in step.friction.elements.iter().enumerate() {
-            if let Some(element) = element
-                && change[d] != 0.0
-            {
-                for (output, coefficient) in element.force_outputs {
-                    y[output as usize] += coefficient * change[d];
-                }
-            }
-        }
-        y
+        shaped_outputs(&step, x, sliders, &u)
     }
 
     /// How a friction limit shapes the outputs at the current states and inputs.
@@ -604,6 +592,8 @@ impl Tire {
         // Friction: the sticking check commits the branches only if the step stands; a
         // step with sliding works on copies until it has succeeded.
         let mut sliding = false;
+        let mut shaped = None;
+        let friction_damped = self.friction.as_ref().is_some_and(Friction::damped);
         if let Some(friction) = self.friction.as_mut() {
             match mode {
                 ContactMode::LiftedOff => friction.lift_off(h / LIFT_OFF_RELAXATION_TIME),
@@ -647,6 +637,12 @@ impl Tire {
                                 sliding_step
                                     .integrate(&mut end, &mut sliders, h)
                                     .map_err(|_| StepError::NotConverged)?;
+                                // Damped forces are shaped by their limits: the outputs
+                                // at the end from this step's system and limits, which
+                                // are those they are otherwise made from on demand.
+                                if !ramping && friction_damped {
+                                    shaped = Some(shaped_outputs(&sliding_step, &end, &sliders, u0));
+                                }
                                 (end, sliders)
                             }
                         };
@@ -663,9 +659,14 @@ impl Tire {
         // Held inputs end the step where they started: the outputs there come from the
         // system already at hand, so compute them now rather than look it up again. A
         // step with sliding ends with every spring force within its limit at this load;
-        // damped forces are shaped by their limits, and are computed on demand.
-        let shaped_by_limits = sliding && self.friction.as_ref().is_some_and(Friction::damped);
-        self.outputs = (!ramping && !shaped_by_limits).then(|| state_space.outputs(&next_states, u0));
+        // damped forces are shaped by their limits (made with the step that slid, or on
+        // demand).
+        let shaped_by_limits = sliding && friction_damped;
+        self.outputs = if shaped_by_limits {
+            shaped
+        } else {
+            (!ramping).then(|| state_space.outputs(&next_states, u0))
+        };
         self.hybrid.valid = false;
         if map_made {
             self.step_made_for = made_for;
@@ -695,4 +696,28 @@ impl Tire {
         }
         energy
     }
+}
+
+/// The outputs at states `x` and branches `sliders` with `step`'s limits: a spring force
+/// beyond its limit is on it (it slides at once), and a damped force is the closest point
+/// of its ellipse.
+fn shaped_outputs(
+    step: &SlidingStep,
+    x: &StateVector,
+    sliders: &SliderState,
+    u: &DrivingVector,
+) -> OutputVector {
+    let (mut x, mut sliders) = (*x, *sliders);
+    let change = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
+    let mut y = step.system.outputs(&x, u);
+    for (d, element) in step.friction.elements.iter().enumerate() {
+        if let Some(element) = element
+            && change[d] != 0.0
+        {
+            for (output, coefficient) in element.force_outputs {
+                y[output as usize] += coefficient * change[d];
+            }
+        }
+    }
+    y
 }

@@ -33,6 +33,7 @@ use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{LinearPart, exprb43, negligible_term, resize};
 use super::extrapolation::Row;
 use super::extrapolation::{ROUNDING, TOLERANCE};
+use super::implicit::IMPLICIT_SEQUENCE;
 use super::{Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, SliderState, SlidingStep, Slot, Vector};
 use crate::physics::friction::group::{
     GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
@@ -50,10 +51,6 @@ const Q: [usize; 2] = [DRIVEN - 2, DRIVEN - 1];
 fn entry(n: usize, m: usize) -> usize {
     n * MAX_MEMBERS + m
 }
-
-/// Step counts of a stiff substep's linearly implicit rows: a quasi-steady slide agrees
-/// at the second; one that needs more than these takes shorter substeps.
-const IMPLICIT_ROWS: [usize; 5] = [1, 2, 3, 4, 5];
 
 /// Exponential substeps the driven groups may take in one step before the whole-system
 /// path takes the step.
@@ -323,7 +320,7 @@ impl SlidingStep<'_> {
             let (interior, closest) = search.found();
             Some((whole(&current), interior, closest, s))
         };
-        let (end, growth, interior, _) = self.extrapolate(&whole(w), &IMPLICIT_ROWS, 1, true, row)?;
+        let (end, growth, interior, _) = self.extrapolate(&whole(w), &IMPLICIT_SEQUENCE, 1, true, row)?;
         interior
             .is_none()
             .then(|| (std::array::from_fn(|c| end[c]), growth))
