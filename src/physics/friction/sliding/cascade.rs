@@ -231,7 +231,10 @@ impl SlidingStep<'_> {
         sum: &DriverSum,
         (h, largest, stiff): (f64, f64, bool),
     ) -> Option<Driven> {
-        let groups = DrivenGroups::new(self, cascade, modes, sum);
+        // No planar group has a member (no limit in either direction): nothing to step.
+        let Some(groups) = DrivenGroups::new(self, cascade, modes, sum) else {
+            return Some([0.0; DRIVEN]);
+        };
         let mut w = [0.0; DRIVEN];
         for (n, slot) in groups.slots().enumerate() {
             for m in slot.law.members() {
@@ -375,11 +378,12 @@ struct DrivenGroups<'s> {
 }
 
 impl<'s> DrivenGroups<'s> {
-    fn new(step: &'s SlidingStep, cascade: &Cascade, modes: &'s Modes, sum: &'s DriverSum) -> Self {
+    /// `None` where there are none.
+    fn new(step: &'s SlidingStep, cascade: &Cascade, modes: &'s Modes, sum: &'s DriverSum) -> Option<Self> {
         let all = step.slots();
         let driven = &cascade.driven[..cascade.driven_count];
         let mut groups = DrivenGroups {
-            slots: [&all[driven[0]]; MAX_BRANCHES],
+            slots: [all.get(*driven.first()?)?; MAX_BRANCHES],
             count: driven.len(),
             modes,
             drive: [[0.0; MAX_MEMBERS]; MAX_BRANCHES],
@@ -395,7 +399,7 @@ impl<'s> DrivenGroups<'s> {
                 groups.coupling[n][m] = cascade.driver_state.map_or(0.0, |s| step.system.a[(k, s)]);
             }
         }
-        groups
+        Some(groups)
     }
 
     fn count(&self) -> usize {
