@@ -276,6 +276,12 @@ impl SlidingStep<'_> {
             };
             if let Some(end) = end {
                 (w, t) = (end, t + length);
+                // An exponential substep has sampled its end (`U3`, to within its remainder
+                // terms), every group clear of its event there: at the step's end that is
+                // the check, with no evaluation more. (The implicit rows sample inside.)
+                if !stiff && t >= h {
+                    return Some(w);
+                }
             }
             length *= factor;
         }
