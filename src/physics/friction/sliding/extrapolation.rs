@@ -30,6 +30,9 @@ const SHORT_SEQUENCE: [usize; 4] = [1, 2, 3, 4];
 /// One row's end, where a limit may have been touched inside it (the first sample past
 /// the tolerance, the sample closest to it), and its sample spacing.
 pub(super) type Row = (Vector, Option<Interior>, Option<Interior>, f64);
+/// A substep taken: its end, the factor by which the next may grow, where a limit may
+/// have been touched inside it, and the spacing of the samples that found it.
+pub(super) type Taken = (Vector, f64, Option<Interior>, f64);
 /// Relative accuracy of each substep.
 pub(super) const TOLERANCE: f64 = 1e-12;
 /// A few rounding units: the error floor relative to the largest entry.
@@ -108,7 +111,8 @@ impl SlidingStep<'_> {
     ///   evaluations, and usually agree at the third, where the midpoint rows take six;
     ///   those follow if four Euler rows do not agree.
     ///
-    /// A stiff step's substeps are all linearly implicit.
+    /// A stiff step's substeps are all linearly implicit. Also whether the substep's end
+    /// was sampled with every group clear of its event there (an exponential one's, `U3`).
     pub(super) fn substep(
         &self,
         t: f64,
@@ -117,12 +121,14 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
         toward: Toward,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+    ) -> Option<(Taken, bool)> {
         if !self.stiff.get() {
             match toward {
                 Toward::NoEvent if self.exponential_suited() => {
                     match self.exponential_substep(t, z, start, length, modes, true) {
-                        Exponential::Taken(end, growth) => return Some((end, growth, None, 0.5 * length)),
+                        Exponential::Taken(end, growth) => {
+                            return Some(((end, growth, None, 0.5 * length), true));
+                        }
                         Exponential::TooLong => self.exponential_declined.set(true),
                         Exponential::NotSuited => {}
                     }
@@ -132,13 +138,14 @@ impl SlidingStep<'_> {
                         Some(self.stepped_row(t, z, start, length, n, modes, |scaled_rates| scaled_rates))
                     };
                     if let Some(taken) = self.extrapolate(z, &SHORT_SEQUENCE, 1, true, euler) {
-                        return Some(taken);
+                        return Some((taken, false));
                     }
                 }
                 _ => {}
             }
         }
         self.substep_by(t, z, start, length, modes, true)
+            .map(|taken| (taken, false))
     }
 
     /// Whether a substep may be exponential: an explicit step (the linearly implicit one
@@ -214,7 +221,7 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
         look_inside: bool,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+    ) -> Option<Taken> {
         if self.stiff.get() {
             let jacobian = self.jacobian(t, z, start.0, modes);
             self.extrapolate(z, &IMPLICIT_SEQUENCE, 1, look_inside, |n| {
@@ -238,7 +245,7 @@ impl SlidingStep<'_> {
         power: i32,
         look_inside: bool,
         mut row_of: impl FnMut(usize) -> Option<Row>,
-    ) -> Option<(Vector, f64, Option<Interior>, f64)> {
+    ) -> Option<Taken> {
         let size = self.size();
         // From the second row on, its difference from the row below is taken as the
         // error: that difference is the error of the unextrapolated value, and the

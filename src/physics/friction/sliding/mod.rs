@@ -663,7 +663,7 @@ impl<'a> SlidingStep<'a> {
                 Some(_) if length <= SHORT * longest => Toward::NearEvent,
                 Some(_) => Toward::Event,
             };
-            let Some((mut z_end, growth, interior, spacing)) =
+            let Some(((mut z_end, growth, interior, spacing), end_clear)) =
                 self.substep(t, &z, start, length, &modes, toward)
             else {
                 length *= 0.25;
@@ -672,6 +672,14 @@ impl<'a> SlidingStep<'a> {
                 }
                 continue;
             };
+            // A substep to the step's end whose end was sampled clear of every event: the
+            // end's evaluation would only look for events there.
+            if end_clear && t + length >= h {
+                z = z_end;
+                t = h;
+                self.hold_on_limits(&mut z, &modes);
+                break;
+            }
             let (end_rates, mut end_events) = self.rates(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
