@@ -247,6 +247,17 @@ impl Default for Parameters {
     }
 }
 
+/// The stiff tread of the stiff light tire the tests slide (Calpha = Ckappa = 1e7,
+/// sigmaY = sigmaX = 0.05 m: 2e8 N/m), which a light load makes turn its force within
+/// microseconds.
+#[cfg(test)]
+pub(crate) const STIFF_TREAD: [(Parameter, f64); 4] = [
+    (Parameter::CorneringStiffness, 1e7),
+    (Parameter::SlipStiffness, 1e7),
+    (Parameter::LateralRelaxationLength, 0.05),
+    (Parameter::LongitudinalRelaxationLength, 0.05),
+];
+
 impl Parameters {
     /// The same parameters with another model.
     pub fn with_model(mut self, model: ModelKind) -> Self {

@@ -7,6 +7,7 @@ use proptest::prelude::*;
 use super::SeparableStep;
 use crate::physics::friction::sliding::SlidingStep;
 use crate::physics::friction::{Direction, Friction, FrictionLaw, Limits, MAX_BRANCHES, SliderState};
+use crate::physics::parameters::STIFF_TREAD;
 use crate::physics::state_space::{DrivingVector, StateVector};
 use crate::physics::stepper::AffineSystem;
 use crate::physics::{ModelKind, Parameter, Parameters, Tire};
@@ -38,12 +39,7 @@ fn compare(case: &Case) {
         p.set(Parameter::LongitudinalFriction, 0.0).unwrap();
     }
     if case.stiff {
-        for (parameter, value) in [
-            (Parameter::CorneringStiffness, 1e7),
-            (Parameter::SlipStiffness, 1e7),
-            (Parameter::LateralRelaxationLength, 0.05),
-            (Parameter::LongitudinalRelaxationLength, 0.05),
-        ] {
+        for (parameter, value) in STIFF_TREAD {
             p.set(parameter, value).unwrap();
         }
     }

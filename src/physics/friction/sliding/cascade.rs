@@ -551,9 +551,10 @@ impl LinearPart<DRIVEN> for DrivenLinearPart {
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{SlidingStep, tire_at};
+    use super::super::with_settled_slide;
     use crate::physics::friction::{FrictionLaw, SliderState};
-    use crate::physics::state_space::{DrivingVector, StateVector};
+    use crate::physics::parameters::STIFF_TREAD;
+    use crate::physics::state_space::StateVector;
     use crate::physics::{ModelKind, Parameter, Parameters};
 
     proptest! {
@@ -579,12 +580,7 @@ mod tests {
             let mut p = Parameters::default().with_model(ModelKind::Ddt).with_friction(law);
             let mut load = load_ratio * p.get(Parameter::NominalLoad);
             if stiff_light {
-                for (parameter, value) in [
-                    (Parameter::CorneringStiffness, 1e7),
-                    (Parameter::SlipStiffness, 1e7),
-                    (Parameter::LateralRelaxationLength, 0.05),
-                    (Parameter::LongitudinalRelaxationLength, 0.05),
-                ] {
+                for (parameter, value) in STIFF_TREAD {
                     p.set(parameter, value).unwrap();
                 }
                 load = 100.0 * load_ratio;
@@ -594,17 +590,7 @@ mod tests {
                     p.set(Parameter::LongitudinalFriction, 0.01).unwrap();
                 }
             }
-            let (system, mut friction, limits, travel) = tire_at(&p, vx, load);
-            let mut x = StateVector::zeros();
-            for k in 0..3 {
-                x[k] = states[k] * travel;
-            }
-            let mut sliders = SliderState::AT_REST;
-            let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
-            let step = SlidingStep::new(&system, &mut friction, limits, (u, DrivingVector::zeros()), travel);
-            step.prepare(&mut x, &mut sliders);
-            step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
-            step.prepare(&mut x, &mut sliders);
+            with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
             let stiff = h * step.start_sliding_rate.get() > super::super::STIFF_STEP;
             let (mut x_cascade, mut sliders_cascade) = (x, sliders);
             prop_assume!(step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, stiff));
@@ -626,6 +612,8 @@ mod tests {
                     "{law:?} combined {combined} stiff {stiff}, value {c}: {a} vs {b} (largest {largest})"
                 );
             }
+            Ok(())
+            })?;
         }
     }
 }

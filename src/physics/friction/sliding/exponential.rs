@@ -303,10 +303,9 @@ pub(super) fn exprb43<const E: usize>(
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{SlidingStep, tire_at};
+    use super::super::with_settled_slide;
     use super::Exponential;
-    use crate::physics::friction::{FrictionLaw, SliderState};
-    use crate::physics::state_space::{DrivingVector, StateVector};
+    use crate::physics::friction::FrictionLaw;
     use crate::physics::{ModelKind, Parameter, Parameters};
 
     proptest! {
@@ -332,18 +331,7 @@ mod tests {
                 p.set(Parameter::LongitudinalFriction, 0.01).unwrap();
             }
             let load = load_ratio * p.get(Parameter::NominalLoad);
-            let (system, mut friction, limits, travel) = tire_at(&p, vx, load);
-            let mut x = StateVector::zeros();
-            for k in 0..system.states.min(4) {
-                x[k] = states[k] * travel;
-            }
-            let mut sliders = SliderState::AT_REST;
-            let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
-            let step = SlidingStep::new(&system, &mut friction, limits, (u, DrivingVector::zeros()), travel);
-            // A slide as the tire meets it: settled from there for 20 ms.
-            step.prepare(&mut x, &mut sliders);
-            step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
-            step.prepare(&mut x, &mut sliders);
+            with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
             let (z, modes) = (step.layout.pack(&x, &sliders), sliders.sliding);
             let (rates, events) = step.rates(0.0, &z, &modes);
             // The longest of these substeps the exponential method takes (the shortest
@@ -382,6 +370,8 @@ mod tests {
                     extrapolated[c]
                 );
             }
+            Ok(())
+            })?;
         }
     }
 }

@@ -1058,6 +1058,36 @@ fn tire_at(p: &crate::physics::Parameters, vx: f64, load: f64) -> (StateSpace, F
     (system, friction, limits, travel)
 }
 
+/// A slide as a tire of parameters `p` meets it at `vx` and `load`: from `states` (in
+/// units of the elastic travel, as far as the model has states) under driving `inputs`
+/// held, settled for 20 ms and prepared; passed to `then` with its step and travel.
+#[cfg(test)]
+fn with_settled_slide<R>(
+    p: &crate::physics::Parameters,
+    (vx, load): (f64, f64),
+    (states, inputs): (&[f64], [f64; 3]),
+    then: impl FnOnce(&SlidingStep, StateVector, SliderState, f64) -> R,
+) -> R {
+    let (system, mut friction, limits, travel) = tire_at(p, vx, load);
+    let mut x = StateVector::zeros();
+    for (k, state) in states.iter().enumerate().take(system.states) {
+        x[k] = state * travel;
+    }
+    let mut sliders = SliderState::AT_REST;
+    let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
+    let step = SlidingStep::new(
+        &system,
+        &mut friction,
+        limits,
+        (u, DrivingVector::zeros()),
+        travel,
+    );
+    step.prepare(&mut x, &mut sliders);
+    step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
+    step.prepare(&mut x, &mut sliders);
+    then(&step, x, sliders, travel)
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
