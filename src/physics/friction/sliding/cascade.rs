@@ -52,8 +52,8 @@ fn entry(n: usize, m: usize) -> usize {
     n * MAX_MEMBERS + m
 }
 
-/// Exponential substeps the driven groups may take in one step before the whole-system
-/// path takes the step.
+/// Substeps the driven groups may take in one step before the whole-system path takes
+/// the step.
 const MAX_SUBSTEPS: usize = 8;
 
 /// The cascade of one step: which slots drive and which are driven, and the drivers'
@@ -122,13 +122,15 @@ impl SlidingStep<'_> {
                 slot.relaxation[0]
             };
             let mode = usize::from(sliding);
-            // One rate per mode: the branches' `K / Dw` and relaxation are their element's.
-            if rate_set[mode] && sum.rate[mode] != mu {
+            // One rate per mode: the branches' `K / Dw = w C / (w D)` and relaxation are
+            // their element's (`K / Dw` to the last bits of each branch's quotient).
+            if !rate_set[mode] {
+                (sum.rate[mode], rate_set[mode]) = (mu, true);
+            } else if (sum.rate[mode] - mu).abs() > 4.0 * f64::EPSILON * mu.abs() {
                 return false;
             }
-            (sum.rate[mode], rate_set[mode]) = (mu, true);
             sum.by_mode[mode] += self.layout.weights[slot.branch] * start.rate[0];
-            end[entry] = z[entry] + q_at(mu, h) * start.rate[0];
+            end[entry] = z[entry] + q_at(sum.rate[mode], h) * start.rate[0];
             let finish = self.driver_output(slot, end[entry], sliding);
             // The deflection moves monotonically, so the force sticking needs (affine in
             // it) is largest in size at an end: sticking, the ends' event values bound it.
@@ -241,8 +243,14 @@ impl SlidingStep<'_> {
                 w[entry(n, m)] = z[slot.entries[m]];
             }
         }
-        let (mut t, mut length) = (0.0, h);
-        for _ in 0..MAX_SUBSTEPS {
+        // The explicit substeps stay as short as the whole system's exponential ones, so
+        // that their samples of the event values are as close; the implicit ones try the
+        // whole step first, as there.
+        let longest = if stiff { h } else { 0.25 * self.longest_substep() };
+        let (mut t, mut length, mut taken) = (0.0, h.min(longest), 0);
+        // Each pass evaluates where the last substep ended (the last pass only to check
+        // the events there), so the loop has a pass more than the substeps.
+        for _ in 0..=MAX_SUBSTEPS {
             let (rates, events, inputs) = groups.evaluate(&w);
             if !events
                 .iter()
@@ -254,12 +262,18 @@ impl SlidingStep<'_> {
             if t >= h {
                 return Some(w);
             }
-            length = length.min(h - t);
+            // Substeps that cannot finish the step within the rest at the length the error
+            // control allows: the whole-system path takes it, known early.
+            length = length.min(h - t).min(longest);
+            if taken == MAX_SUBSTEPS || h - t > length * (MAX_SUBSTEPS - taken) as f64 {
+                return None;
+            }
             let slopes = groups.slopes(&inputs, &rates);
             let (end, factor) = if stiff {
                 match self.driven_implicit_substep(&groups, (t, &w), (&rates, &events), &slopes, length) {
-                    Some((end, growth)) => (Some(end), growth),
-                    None => (None, 0.25),
+                    Implicit::Taken(end, growth) => (Some(end), growth),
+                    Implicit::Shorter => (None, 0.25),
+                    Implicit::NearEvent => return None,
                 }
             } else {
                 let linear = groups.linear_part(&slopes, length, negligible_term(self.scale, largest));
@@ -275,7 +289,7 @@ impl SlidingStep<'_> {
                 (taken.then_some(fourth), factor)
             };
             if let Some(end) = end {
-                (w, t) = (end, t + length);
+                (w, t, taken) = (end, t + length, taken + 1);
                 // An exponential substep has sampled its end (`U3`, to within its remainder
                 // terms), every group clear of its event there: at the step's end that is
                 // the check, with no evaluation more. (The implicit rows sample inside.)
@@ -291,9 +305,7 @@ impl SlidingStep<'_> {
     /// One substep of the driven groups by linearly implicit Euler extrapolation (as
     /// [`super::implicit`] takes the whole system), each Euler step solving
     /// `(I - s J) db = s f` group by group with its two by two of the Jacobian at the
-    /// substep's start. The `q`s are known: each step sets them where it ends. The end
-    /// and the factor by which the next substep may grow; `None` if the rows do not
-    /// agree, a solve fails, or a group may touch its limit inside.
+    /// substep's start. The `q`s are known: each step sets them where it ends.
     fn driven_implicit_substep(
         &self,
         groups: &DrivenGroups,
@@ -301,7 +313,7 @@ impl SlidingStep<'_> {
         (rates, events): (&Driven, &Events),
         slopes: &[Slopes; MAX_BRANCHES],
         length: f64,
-    ) -> Option<(Driven, f64)> {
+    ) -> Implicit {
         let whole = |d: &Driven| {
             let mut v = [0.0; SIZE];
             v[..DRIVEN].copy_from_slice(d);
@@ -329,10 +341,11 @@ impl SlidingStep<'_> {
             let (interior, closest) = search.found();
             Some((whole(&current), interior, closest, s))
         };
-        let (end, growth, interior, _) = self.extrapolate(&whole(w), &IMPLICIT_SEQUENCE, 1, true, row)?;
-        interior
-            .is_none()
-            .then(|| (std::array::from_fn(|c| end[c]), growth))
+        match self.extrapolate(&whole(w), &IMPLICIT_SEQUENCE, 1, true, row) {
+            None => Implicit::Shorter,
+            Some((_, _, Some(_), _)) => Implicit::NearEvent,
+            Some((end, growth, None, _)) => Implicit::Taken(std::array::from_fn(|c| end[c]), growth),
+        }
     }
 
     /// The embedded estimate's size against the tolerance over the driven groups'
@@ -360,6 +373,16 @@ impl SlidingStep<'_> {
 struct Slopes {
     by_member: [Members; MAX_MEMBERS],
     by_driver: Members,
+}
+
+/// How a stiff substep of the driven groups ended ([`SlidingStep::driven_implicit_substep`]).
+enum Implicit {
+    /// Accurate: the end, and the factor by which the next substep may grow.
+    Taken(Driven, f64),
+    /// The rows did not agree, or a solve failed: a shorter substep.
+    Shorter,
+    /// A group may touch its limit inside: the whole-system path takes the step.
+    NearEvent,
 }
 
 /// `s` times the solution of `(I - s J) d = v` for a driven group's two by two `J`
