@@ -111,6 +111,8 @@ impl SlidingStep<'_> {
             sum.start = states[state];
         }
         let mut rate_set = [false; 2];
+        // By mode, `q(h)`: the same for every branch in that mode.
+        let mut q_end = [None; 2];
         for &j in &cascade.drivers[..cascade.driver_count] {
             let slot = &slots[j];
             let sliding = modes[slot.group][slot.branch];
@@ -130,7 +132,8 @@ impl SlidingStep<'_> {
                 return false;
             }
             sum.by_mode[mode] += self.layout.weights[slot.branch] * start.rate[0];
-            end[entry] = z[entry] + q_at(sum.rate[mode], h) * start.rate[0];
+            let q = *q_end[mode].get_or_insert_with(|| q_at(sum.rate[mode], h));
+            end[entry] = z[entry] + q * start.rate[0];
             let finish = self.driver_output(slot, end[entry], sliding);
             // The deflection moves monotonically, so the force sticking needs (affine in
             // it) is largest in size at an end: sticking, the ends' event values bound it.
@@ -319,6 +322,7 @@ impl SlidingStep<'_> {
             v[..DRIVEN].copy_from_slice(d);
             v
         };
+        let q_end = groups.sum.rate.map(|mu| q_at(mu, t + length));
         let row = |n: usize| -> Option<Row> {
             let s = length / n as f64;
             let mut current = *w;
@@ -336,7 +340,14 @@ impl SlidingStep<'_> {
                         current[entry(g, m)] += change[m];
                     }
                 }
-                groups.set_q(&mut current, t + (k + 1) as f64 * s);
+                // Every row ends where the substep does: the `q`s there are made once.
+                if k + 1 == n {
+                    for (mode, &q) in Q.iter().enumerate() {
+                        current[q] = q_end[mode];
+                    }
+                } else {
+                    groups.set_q(&mut current, t + (k + 1) as f64 * s);
+                }
             }
             let (interior, closest) = search.found();
             Some((whole(&current), interior, closest, s))
