@@ -86,6 +86,11 @@ impl StateSpace {
         y
     }
 
+    /// The inputs' part of state `k`'s rate, `(B u)_k`.
+    pub fn input_rate(&self, k: usize, u: &DrivingVector) -> f64 {
+        (0..u.len()).map(|j| self.b[(k, j)] * u[j]).sum()
+    }
+
     /// `dx/dt = A x + B u`, over the model's own states (the unused rows and columns of
     /// the fixed-size storage are zero: skipped; the step with sliding evaluates this many
     /// times per step).

@@ -102,6 +102,11 @@ pub struct Friction {
     rates_needed: [[bool; MAX_STATES]; 2],
     /// Whether any element has a damper.
     damped: bool,
+    /// Where the elements form a cascade (DDT), the state that drives it: the yaw
+    /// element's, damped and driven by no other state, while each planar element's state
+    /// is driven by its own and that one only, at any operating point
+    /// ([`sliding::cascade`]).
+    cascade_driver: Option<usize>,
     /// The largest `C / D` of the damped elements (how fast a sliding damper relaxes), 1/s.
     fastest_slide_rate: f64,
     /// For a passive model ([`crate::physics::models::TireLagModel::passive`]), the weights
@@ -155,6 +160,21 @@ impl Friction {
                 }
             }
         }
+        let cascade_driver = elements[Direction::Yaw as usize]
+            .filter(|yaw| yaw.damping > 0.0 && state_undriven[yaw.state])
+            .map(|yaw| yaw.state)
+            .filter(|&driver| {
+                [Direction::Longitudinal, Direction::Lateral]
+                    .into_iter()
+                    .filter_map(|d| elements[d as usize])
+                    .all(|e| {
+                        let k = e.state;
+                        coupling[k]
+                            .iter()
+                            .enumerate()
+                            .all(|(j, &c)| j == k || j == driver || c == 0.0)
+                    })
+            });
         let first_breakpoint = law
             .branches()
             .iter()
@@ -204,6 +224,7 @@ impl Friction {
             undriven,
             rates_needed,
             damped: elements.iter().flatten().any(|e| e.damping > 0.0),
+            cascade_driver,
             fastest_slide_rate: elements
                 .iter()
                 .flatten()

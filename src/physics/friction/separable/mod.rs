@@ -91,7 +91,7 @@ impl SeparableStep {
                 stiffness[m] = element.stiffness;
                 limit[m] = limits.0[d];
                 relaxation[m] = -system.a[(k, k)];
-                drive[m] = (0..inputs.len()).map(|j| system.b[(k, j)] * inputs[j]).sum();
+                drive[m] = system.input_rate(k, inputs);
             }
         }
         let mut ellipses = [EllipseBranch::default(); MAX_BRANCHES];

@@ -31,8 +31,7 @@
 
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{LinearPart, exprb43, negligible_term, resize};
-use super::extrapolation::Row;
-use super::extrapolation::{ROUNDING, TOLERANCE};
+use super::extrapolation::{Row, largest_of};
 use super::implicit::IMPLICIT_SEQUENCE;
 use super::{Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, SliderState, SlidingStep, Slot, Vector};
 use crate::physics::friction::group::{
@@ -63,7 +62,7 @@ struct Cascade {
     driver_count: usize,
     driven: [usize; MAX_TOGETHER],
     driven_count: usize,
-    driver_state: Option<usize>,
+    driver_state: usize,
 }
 
 /// The drivers' element state over the step: `U0 + R . q(t)`, with each mode's rate `mu`.
@@ -102,15 +101,14 @@ impl SlidingStep<'_> {
         };
         let (z, modes) = (self.layout.pack(x, sliders), sliders.sliding);
         let states = self.layout.model_states(&z);
-        let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let largest = largest_of(&z);
         let slots = self.slots();
         let mut end = z;
         // Drivers, in closed form; their weighted sum's terms by mode.
-        let mut sum = DriverSum::default();
-        if let Some(state) = cascade.driver_state {
-            sum.start = states[state];
-        }
-        let mut rate_set = [false; 2];
+        let mut sum = DriverSum {
+            start: states[cascade.driver_state],
+            ..DriverSum::default()
+        };
         // By mode, `q(h)`: the same for every branch in that mode.
         let mut q_end = [None; 2];
         for &j in &cascade.drivers[..cascade.driver_count] {
@@ -126,13 +124,15 @@ impl SlidingStep<'_> {
             let mode = usize::from(sliding);
             // One rate per mode: the branches' `K / Dw = w C / (w D)` and relaxation are
             // their element's (`K / Dw` to the last bits of each branch's quotient).
-            if !rate_set[mode] {
-                (sum.rate[mode], rate_set[mode]) = (mu, true);
-            } else if (sum.rate[mode] - mu).abs() > 4.0 * f64::EPSILON * mu.abs() {
-                return false;
-            }
+            let q = match q_end[mode] {
+                None => {
+                    sum.rate[mode] = mu;
+                    *q_end[mode].insert(q_at(mu, h))
+                }
+                Some(_) if (sum.rate[mode] - mu).abs() > 4.0 * f64::EPSILON * mu.abs() => return false,
+                Some(q) => q,
+            };
             sum.by_mode[mode] += self.layout.weights[slot.branch] * start.rate[0];
-            let q = *q_end[mode].get_or_insert_with(|| q_at(sum.rate[mode], h));
             end[entry] = z[entry] + q * start.rate[0];
             let finish = self.driver_output(slot, end[entry], sliding);
             // The deflection moves monotonically, so the force sticking needs (affine in
@@ -158,29 +158,24 @@ impl SlidingStep<'_> {
         true
     }
 
-    /// The cascade of this step's slots, if they form one (see the module's doc) and the
-    /// step suits it: damped groups, no free states, held inputs.
+    /// The cascade of this step's slots, if the model's elements form one
+    /// ([`crate::physics::friction::Friction::cascade_driver`]) and the step suits it: no free states, held inputs.
+    /// The driver's branches drive; every other slot is driven.
     fn cascade(&self) -> Option<Cascade> {
         let layout = &self.layout;
-        if layout.free_count != 0 || !self.friction.damped() || self.input_rates != DrivingVector::zeros() {
+        let driver = self.friction.cascade_driver?;
+        if layout.free_count != 0 || self.input_rates != DrivingVector::zeros() {
             return None;
         }
-        let a = &self.system.a;
-        let only_own = |k: usize| (0..layout.states).all(|l| l == k || a[(k, l)] == 0.0);
         let mut cascade = Cascade {
             drivers: [0; MAX_TOGETHER],
             driver_count: 0,
             driven: [0; MAX_TOGETHER],
             driven_count: 0,
-            driver_state: None,
+            driver_state: driver,
         };
         for (j, slot) in self.slots().iter().enumerate() {
-            let state = slot.states[0];
-            if slot.law.count == 1 && slot.law.damped() && only_own(state) {
-                if cascade.driver_state.is_some_and(|s| s != state) {
-                    return None;
-                }
-                cascade.driver_state = Some(state);
+            if slot.states[0] == driver {
                 cascade.drivers[cascade.driver_count] = j;
                 cascade.driver_count += 1;
             } else {
@@ -190,22 +185,8 @@ impl SlidingStep<'_> {
         }
         // The driven entries within the whole vector's count, which the extrapolation of a
         // stiff substep compares.
-        if cascade.driven_count > MAX_BRANCHES || entry(cascade.driven_count, 0) > layout.size {
-            return None;
-        }
-        // A driven member's rate moves with its own state and the drivers' only.
-        for &j in &cascade.driven[..cascade.driven_count] {
-            let slot = &self.slots()[j];
-            for m in slot.law.members() {
-                let k = slot.states[m];
-                let other =
-                    (0..layout.states).any(|l| l != k && Some(l) != cascade.driver_state && a[(k, l)] != 0.0);
-                if other {
-                    return None;
-                }
-            }
-        }
-        Some(cascade)
+        (cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
+            .then_some(cascade)
     }
 
     /// A driver's group output at deflection `b` in its mode: its sticking rate is its
@@ -213,15 +194,9 @@ impl SlidingStep<'_> {
     fn driver_output(&self, slot: &Slot, b: f64, sliding: bool) -> GroupOutput {
         let mut input = GroupInput::at_rest(&slot.law);
         input.deflection[0] = b;
-        input.sticking_rate[0] = slot.relaxation[0] * b + self.drive(slot.states[0]);
+        input.sticking_rate[0] =
+            slot.relaxation[0] * b + self.system.input_rate(slot.states[0], &self.inputs);
         input.evaluate(sliding)
-    }
-
-    /// The inputs' part of state `k`'s rate, `(B u)_k`.
-    fn drive(&self, k: usize) -> f64 {
-        (0..self.inputs.len())
-            .map(|j| self.system.b[(k, j)] * self.inputs[j])
-            .sum()
     }
 
     /// The driven groups over the step, side by side, in substeps of one length: by
@@ -287,7 +262,12 @@ impl SlidingStep<'_> {
                     (stage == 1 || search.found() == (None, None)).then_some(rates)
                 };
                 let (fourth, third) = exprb43(&linear, &w, &rates, stage_rates)?;
-                let error = self.driven_error_ratio(&w, (&fourth, &third), groups.count(), largest);
+                // Over the groups' deflections: the `q`s are exact.
+                let deflections = entry(groups.count(), 0);
+                let error = self.error_ratio_of(
+                    (&w[..deflections], &fourth[..deflections], &third[..deflections]),
+                    largest,
+                );
                 let (taken, factor) = resize(error);
                 (taken.then_some(fourth), factor)
             };
@@ -358,24 +338,6 @@ impl SlidingStep<'_> {
             Some((end, growth, None, _)) => Implicit::Taken(std::array::from_fn(|c| end[c]), growth),
         }
     }
-
-    /// The embedded estimate's size against the tolerance over the driven groups'
-    /// deflections, as [`SlidingStep::error_ratio`] takes it over the whole vector.
-    fn driven_error_ratio(
-        &self,
-        w: &Driven,
-        (best, other): (&Driven, &Driven),
-        count: usize,
-        largest: f64,
-    ) -> f64 {
-        let floor = ROUNDING * largest;
-        (0..entry(count, 0))
-            .map(|c| {
-                (best[c] - other[c]).abs()
-                    / (TOLERANCE * (self.scale + w[c].abs().max(best[c].abs())) + floor)
-            })
-            .fold(0.0, f64::max)
-    }
 }
 
 /// `d rate_k / d b_m` of a driven group (through its sticking rates too, with their
@@ -435,8 +397,8 @@ impl<'s> DrivenGroups<'s> {
             groups.slots[n] = slot;
             for m in slot.law.members() {
                 let k = slot.states[m];
-                groups.drive[n][m] = step.drive(k);
-                groups.coupling[n][m] = cascade.driver_state.map_or(0.0, |s| step.system.a[(k, s)]);
+                groups.drive[n][m] = step.system.input_rate(k, &step.inputs);
+                groups.coupling[n][m] = step.system.a[(k, cascade.driver_state)];
             }
         }
         Some(groups)

@@ -32,7 +32,7 @@
 //! intermediate values locate events; so events are found where they were.
 
 use super::events::InteriorSearch;
-use super::extrapolation::{ROUNDING, TOLERANCE};
+use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
 use super::{Events, Modes, SIZE, SlidingStep, Vector};
 use crate::physics::stepper::phi::inverse_factorials;
 
@@ -206,7 +206,7 @@ impl SlidingStep<'_> {
         look_inside: bool,
     ) -> Exponential {
         let jacobian = self.jacobian(t, z, start_rates, modes);
-        let largest = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let largest = largest_of(z);
         let linear = Linearisation::new(jacobian.scaled_columns::<E>(length), length, self.scale, largest);
         let mut search = InteriorSearch::new(start_events);
         // The stages' rates from the whole coupled vector, their event values sampled.
@@ -226,11 +226,17 @@ impl SlidingStep<'_> {
         ) else {
             return Exponential::NotSuited;
         };
-        let (mut fourth_whole, mut third_whole) = (*z, *z);
-        fourth_whole[..E].copy_from_slice(&fourth);
-        third_whole[..E].copy_from_slice(&third);
-        match resize(self.error_ratio(z, &fourth_whole, &third_whole)) {
-            (true, growth) => Exponential::Taken(fourth_whole, growth),
+        let size = self.size();
+        let error = self.error_ratio_of(
+            (&z[..size], &fourth[..size], &third[..size]),
+            largest_of(&z[..size]),
+        );
+        match resize(error) {
+            (true, growth) => {
+                let mut end = *z;
+                end[..E].copy_from_slice(&fourth);
+                Exponential::Taken(end, growth)
+            }
             (false, _) => Exponential::TooLong,
         }
     }

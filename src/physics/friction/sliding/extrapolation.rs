@@ -33,6 +33,11 @@ pub(super) type Row = (Vector, Option<Interior>, Option<Interior>, f64);
 /// A substep taken: its end, the factor by which the next may grow, where a limit may
 /// have been touched inside it, and the spacing of the samples that found it.
 pub(super) type Taken = (Vector, f64, Option<Interior>, f64);
+/// The largest size of `values`.
+pub(super) fn largest_of(values: &[f64]) -> f64 {
+    values.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
+}
+
 /// Relative accuracy of each substep.
 pub(super) const TOLERANCE: f64 = 1e-12;
 /// A few rounding units: the error floor relative to the largest entry.
@@ -200,8 +205,17 @@ impl SlidingStep<'_> {
     /// second cannot be resolved further). At most 1: accurate.
     pub(super) fn error_ratio(&self, z: &Vector, best: &Vector, previous: &Vector) -> f64 {
         let size = self.size();
-        let floor = ROUNDING * z[..size].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        (0..size)
+        self.error_ratio_of(
+            (&z[..size], &best[..size], &previous[..size]),
+            largest_of(&z[..size]),
+        )
+    }
+
+    /// [`SlidingStep::error_ratio`] over the entries given (from, best and previous), with
+    /// the rounding floor of the largest entry `largest`.
+    pub(super) fn error_ratio_of(&self, (z, best, previous): (&[f64], &[f64], &[f64]), largest: f64) -> f64 {
+        let floor = ROUNDING * largest;
+        (0..z.len())
             .map(|c| {
                 (best[c] - previous[c]).abs()
                     / (TOLERANCE * (self.scale + z[c].abs().max(best[c].abs())) + floor)
