@@ -80,7 +80,7 @@ const EXPLICIT_MARGIN: usize = 64;
 const EXPLICIT_CAP: usize = 256;
 
 /// A substep to a predicted event no longer than this fraction of the longest substep
-/// (`SHORT / 4` of the fastest time constant) is tried by Euler extrapolation first
+/// (`SHORT / 4` of the fastest time constant) is tried by Kutta's third-order step first
 /// ([`SlidingStep::substep`]): a stick that ends within microseconds of the step's
 /// start, as a rising load makes every sliding branch do.
 const SHORT: f64 = 0.01;
