@@ -32,7 +32,7 @@
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{LinearPart, exprb43, negligible_term, resize};
 use super::extrapolation::{Row, largest_of};
-use super::implicit::IMPLICIT_SEQUENCE;
+use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
 use super::{Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, SliderState, SlidingStep, Slot, Vector};
 use crate::physics::friction::group::{
     GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
@@ -305,6 +305,11 @@ impl SlidingStep<'_> {
         let q_end = groups.sum.rate.map(|mu| q_at(mu, t + length));
         let row = |n: usize| -> Option<Row> {
             let s = length / n as f64;
+            // Each group's `(I - s J)^-1`, for every Euler step of the row.
+            let mut inverses = [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_BRANCHES];
+            for (g, slot) in groups.slots().enumerate() {
+                inverses[g] = shifted_inverse(&slopes[g].by_member, s, slot.law.count)?;
+            }
             let mut current = *w;
             let mut at_rates = *rates;
             let mut search = InteriorSearch::new(events);
@@ -314,10 +319,10 @@ impl SlidingStep<'_> {
                     (at_rates, at_events, _) = groups.evaluate(&current);
                     search.sample(k, s, &at_events);
                 }
-                for (g, block) in slopes[..groups.count()].iter().enumerate() {
-                    let change = solve_shifted(block, s, [at_rates[entry(g, 0)], at_rates[entry(g, 1)]])?;
+                for (g, inverse) in inverses[..groups.count()].iter().enumerate() {
+                    let v = [at_rates[entry(g, 0)], at_rates[entry(g, 1)]];
                     for m in 0..MAX_MEMBERS {
-                        current[entry(g, m)] += change[m];
+                        current[entry(g, m)] += s * (inverse[m][0] * v[0] + inverse[m][1] * v[1]);
                     }
                 }
                 // Every row ends where the substep does: the `q`s there are made once.
@@ -356,16 +361,6 @@ enum Implicit {
     Shorter,
     /// A group may touch its limit inside: the whole-system path takes the step.
     NearEvent,
-}
-
-/// `s` times the solution of `(I - s J) d = v` for a driven group's two by two `J`
-/// (zero rows and columns past its members); `None` if it is singular.
-fn solve_shifted(slopes: &Slopes, s: f64, v: Members) -> Option<Members> {
-    let j = &slopes.by_member;
-    let (a, b, c, d) = (1.0 - s * j[0][0], -s * j[0][1], -s * j[1][0], 1.0 - s * j[1][1]);
-    let det = a * d - b * c;
-    let solved = [s * (d * v[0] - b * v[1]) / det, s * (a * v[1] - c * v[0]) / det];
-    solved.iter().all(|x| x.is_finite()).then_some(solved)
 }
 
 /// The driven groups of one step: their slots, each member's inputs' part of its

@@ -339,10 +339,10 @@ impl SlidingStep<'_> {
         modes: &Modes,
     ) -> Option<Vector> {
         let size = self.size();
-        let (mut euler, mut taylor) = (*z, *z);
+        let euler = self.advanced(z, rates, dt);
+        let mut taylor = euler;
         for c in 0..size {
-            euler[c] += dt * rates[c];
-            taylor[c] = euler[c] + 0.5 * dt * dt * rate_change[c];
+            taylor[c] += 0.5 * dt * dt * rate_change[c];
         }
         if TAYLOR_MARGIN * self.error_ratio(z, &taylor, &euler) <= 1.0
             && taylor[..size].iter().all(|v| v.is_finite())
@@ -388,10 +388,7 @@ impl SlidingStep<'_> {
             return slopes;
         }
         let delta = 1e-8 * length;
-        let mut moved = *z;
-        for c in 0..self.size() {
-            moved[c] += delta * rates[c];
-        }
+        let moved = self.advanced(z, rates, delta);
         let moved_events = self.events(t + delta, &moved, modes);
         for g in 0..Group::COUNT {
             for i in 0..MAX_BRANCHES {
@@ -616,25 +613,23 @@ mod tests {
         ];
         for (place, height, curvature) in peaks {
             for shape in ["parabola", "cosine"] {
-                let mut values = 0;
-                let curve = |tau: f64| {
-                    values += 1;
+                let value = |tau: f64| {
                     let d: f64 = tau - place;
                     match shape {
                         "parabola" => height - 0.5 * curvature * d * d,
                         _ => height - curvature * (1.0 - (d / (1.0 + d)).cos()),
                     }
                 };
+                let mut values = 0;
+                let curve = |tau: f64| {
+                    values += 1;
+                    value(tau)
+                };
                 let found = largest_past(curve, (0.0, 1.0), 1e-6);
                 if height > EVENT_TOLERANCE {
                     let at = found.unwrap_or_else(|| panic!("{shape} peak {height} at {place} missed"));
-                    let d = at - place;
-                    let there = match shape {
-                        "parabola" => height - 0.5 * curvature * d * d,
-                        _ => height - curvature * (1.0 - (d / (1.0 + d)).cos()),
-                    };
                     assert!(
-                        there > EVENT_TOLERANCE,
+                        value(at) > EVENT_TOLERANCE,
                         "{shape} peak at {place}: {at} is not past"
                     );
                 } else {

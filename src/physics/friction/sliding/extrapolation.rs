@@ -60,18 +60,12 @@ impl SlidingStep<'_> {
         let h = length / n as f64;
         let size = self.size();
         let mut previous = *z;
-        let mut current = *z;
+        let mut current = self.advanced(z, start_rates, h);
         let mut search = InteriorSearch::new(start_events);
-        for c in 0..size {
-            current[c] += h * start_rates[c];
-        }
         for m in 1..n {
             let (rates, events) = self.rates(t + m as f64 * h, &current, modes);
             search.sample(m, h, &events);
-            let mut next = previous;
-            for c in 0..size {
-                next[c] += 2.0 * h * rates[c];
-            }
+            let next = self.advanced(&previous, &rates, 2.0 * h);
             previous = current;
             current = next;
         }
@@ -171,10 +165,7 @@ impl SlidingStep<'_> {
     ) -> Option<Taken> {
         let size = self.size();
         let mut search = InteriorSearch::new(start_events);
-        let mut middle = *z;
-        for c in 0..size {
-            middle[c] += 0.5 * length * start_rates[c];
-        }
+        let middle = self.advanced(z, start_rates, 0.5 * length);
         let (middle_rates, middle_events) = self.rates(t + 0.5 * length, &middle, modes);
         search.sample(1, 0.5 * length, &middle_events);
         let mut end = *z;
@@ -182,11 +173,11 @@ impl SlidingStep<'_> {
             end[c] += length * (2.0 * middle_rates[c] - start_rates[c]);
         }
         let (end_rates, _) = self.rates(t + length, &end, modes);
-        let (mut third, mut second) = (*z, *z);
+        let mut third = *z;
         for c in 0..size {
             third[c] += length * (start_rates[c] + 4.0 * middle_rates[c] + end_rates[c]) / 6.0;
-            second[c] += length * middle_rates[c];
         }
+        let second = self.advanced(z, &middle_rates, length);
         let error = self.error_ratio(z, &third, &second);
         let accurate = error <= 1.0 && third[..size].iter().all(|v| v.is_finite());
         if !accurate {
@@ -200,8 +191,9 @@ impl SlidingStep<'_> {
     }
 
     /// `n` steps of `s = length / n` over `[t, t + length]`, each moving the state by
-    /// `change(s f(t_k, z_k))` (the linearly implicit step's solve), with where a limit may have been touched inside them (as the
-    /// midpoint rows find it) and the sample spacing.
+    /// `change(s f(t_k, z_k))` (the linearly implicit step's solve), with where a limit
+    /// may have been touched inside them (as the midpoint rows find it) and the sample
+    /// spacing.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn stepped_row(
         &self,

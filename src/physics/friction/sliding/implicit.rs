@@ -241,22 +241,8 @@ impl Jacobian<'_> {
         let mut inverse_blocks = [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_TOGETHER];
         for (j, slot) in self.slots.iter().enumerate() {
             let (entries, count) = (slot.entries, slot.law.count);
-            let d = &self.blocks[j];
-            let inverse = &mut inverse_blocks[j];
-            if count == 1 {
-                inverse[0][0] = (1.0 - s * d[0][0]).recip();
-            } else {
-                let (b00, b01) = (1.0 - s * d[0][0], -s * d[0][1]);
-                let (b10, b11) = (-s * d[1][0], 1.0 - s * d[1][1]);
-                let inverse_determinant = (b00 * b11 - b01 * b10).recip();
-                *inverse = [
-                    [b11 * inverse_determinant, -b01 * inverse_determinant],
-                    [-b10 * inverse_determinant, b00 * inverse_determinant],
-                ];
-            }
-            if !inverse.as_flattened().iter().all(|v| v.is_finite()) {
-                return None;
-            }
+            inverse_blocks[j] = shifted_inverse(&self.blocks[j], s, count)?;
+            let inverse = &inverse_blocks[j];
             for k in 0..count {
                 let (state, weight) = self.makes[entries[k]];
                 // The slot's entry k: its row of P out, its row of B^-1 P in.
@@ -332,6 +318,32 @@ impl Factored<'_> {
             }
         }
     }
+}
+
+/// `(I - s D)^-1` of a group's block `D` of `count` members (one or two; the rows and
+/// columns past them zero); `None` if it is singular.
+pub(super) fn shifted_inverse(
+    d: &[Members; MAX_MEMBERS],
+    s: f64,
+    count: usize,
+) -> Option<[Members; MAX_MEMBERS]> {
+    let mut inverse = [[0.0; MAX_MEMBERS]; MAX_MEMBERS];
+    if count == 1 {
+        inverse[0][0] = (1.0 - s * d[0][0]).recip();
+    } else {
+        let (b00, b01) = (1.0 - s * d[0][0], -s * d[0][1]);
+        let (b10, b11) = (-s * d[1][0], 1.0 - s * d[1][1]);
+        let inverse_determinant = (b00 * b11 - b01 * b10).recip();
+        inverse = [
+            [b11 * inverse_determinant, -b01 * inverse_determinant],
+            [-b10 * inverse_determinant, b00 * inverse_determinant],
+        ];
+    }
+    inverse
+        .as_flattened()
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(inverse)
 }
 
 #[cfg(test)]

@@ -467,6 +467,16 @@ impl<'a> SlidingStep<'a> {
         self.layout.size
     }
 
+    /// `z + dt * rates` over the entries in use: an explicit Euler step, or a stage's
+    /// state.
+    fn advanced(&self, z: &Vector, rates: &Vector, dt: f64) -> Vector {
+        let mut moved = *z;
+        for c in 0..self.size() {
+            moved[c] += dt * rates[c];
+        }
+        moved
+    }
+
     fn slots(&self) -> &'a [Slot] {
         self.slots
     }
