@@ -24,6 +24,10 @@ fn at_event(value: f64) -> bool {
 
 /// Newton steps that may settle a predicted crossing missed by a little.
 const SETTLE_STEPS: usize = 3;
+/// How many times its mean rate over a substep another group's event value is allowed
+/// to move at over a settling step taken without evaluating the rates
+/// ([`SlidingStep::reached_without_rates`]).
+const SETTLE_GUARD: f64 = 16.0;
 /// How far within the tolerance the second-order term of a settling step's Taylor
 /// polynomial is to be ([`SlidingStep::short_step`]): its rate of change is an estimate.
 const TAYLOR_MARGIN: f64 = 4.0;
@@ -280,7 +284,7 @@ impl SlidingStep<'_> {
         &self,
         t: f64,
         z: &Vector,
-        (rates, events, rate_change): (&Vector, &Events, &Vector),
+        (start_events, rates, events, rate_change): (&Events, &Vector, &Events, &Vector),
         (g, i): (usize, usize),
         modes: &Modes,
         (back, on): (f64, f64),
@@ -306,9 +310,62 @@ impl SlidingStep<'_> {
             }
             z_at = self.short_step(t + moved, &z_at, (&rates_at, rate_change), dt, modes)?;
             moved += dt;
+            if steps == 0
+                && self.reached_without_rates(
+                    &z_at,
+                    (start_events, events, back),
+                    moved,
+                    (g, i),
+                    modes,
+                    &candidate,
+                )
+            {
+                return Some((moved, z_at));
+            }
             (rates_at, events_at) = self.rates(t + moved, &z_at, modes);
         }
         None
+    }
+
+    /// Whether the first step of [`SlidingStep::settle_on_event`], `moved` seconds from
+    /// the substep's end to `z_at`, put the sticking spring group `(g, i)` on its event
+    /// with no other `candidate` group past its tolerance, known without evaluating the
+    /// rates there (the mode changes at that point, so the next substep's start evaluates
+    /// them anyway). A sticking spring group's event value is a function of its
+    /// deflections alone. Any other group's value moved from its value at the end by at
+    /// most [`SETTLE_GUARD`] times its mean rate over the substep (`start` to `end` over
+    /// `length`) times `moved`, some ten-thousand times shorter; where that could reach
+    /// half its tolerance, the rates are evaluated after all.
+    fn reached_without_rates(
+        &self,
+        z_at: &Vector,
+        (start, end, length): (&Events, &Events, f64),
+        moved: f64,
+        (g, i): (usize, usize),
+        modes: &Modes,
+        candidate: impl Fn(usize, usize) -> bool,
+    ) -> bool {
+        let mut reached = false;
+        for slot in self.slots() {
+            let (h, j) = (slot.group, slot.branch);
+            let this = (h, j) == (g, i);
+            if !this && !candidate(h, j) {
+                continue;
+            }
+            if !modes[h][j] && !slot.law.damped() {
+                let value = slot.utilisation(z_at) - 1.0;
+                if this {
+                    reached = at_event(value);
+                } else if value > EVENT_TOLERANCE {
+                    return false;
+                }
+            } else if this
+                || end[h][j] + SETTLE_GUARD * (end[h][j] - start[h][j]).abs() * (moved / length).abs() > LEVEL
+            {
+                return false;
+            }
+        }
+        reached
     }
 
     /// The first `candidate` group and branch other than `(g, i)` past its tolerance in

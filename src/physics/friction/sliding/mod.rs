@@ -296,6 +296,15 @@ impl Slot {
         of
     }
 
+    /// The utilisation of a spring group's forces at its deflections in `z`.
+    fn utilisation(&self, z: &Vector) -> f64 {
+        let input = GroupInput {
+            deflection: self.of(z),
+            ..GroupInput::at_rest(&self.law)
+        };
+        input.utilisation(&input.spring_force())
+    }
+
     /// Scales a spring group's deflections in `z`, whose forces have `utilisation`, so
     /// that its force is on the ellipse (along its own direction).
     fn put_on_ellipse(&self, z: &mut Vector, utilisation: f64) {
@@ -571,11 +580,7 @@ impl<'a> SlidingStep<'a> {
             if !modes[slot.group][slot.branch] || slot.law.damped() {
                 continue;
             }
-            let input = GroupInput {
-                deflection: slot.of(z),
-                ..GroupInput::at_rest(&slot.law)
-            };
-            let utilisation = input.utilisation(&input.spring_force());
+            let utilisation = slot.utilisation(z);
             if utilisation > 0.0 {
                 slot.put_on_ellipse(z, utilisation);
             }
@@ -734,7 +739,7 @@ impl<'a> SlidingStep<'a> {
                 self.settle_on_event(
                     t + length,
                     &z_end,
-                    (&end_rates, &end_events, &rate_change),
+                    (&start_events, &end_rates, &end_events, &rate_change),
                     (g, i),
                     &modes,
                     (length, h - t - length),
