@@ -2,7 +2,7 @@
 //! falsi, Illinois), and whether a limit is touched and left again between samples (a
 //! parabola through three samples, then a golden-section search on the accurate solution).
 
-use super::{Events, Modes, NO_EVENT, NotConverged, SlidingStep, Vector};
+use super::{Events, Modes, NO_EVENT, NotConverged, SIZE, SlidingStep, Vector};
 use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::{Group, MAX_BRANCHES};
 
@@ -28,6 +28,10 @@ const SETTLE_STEPS: usize = 3;
 /// to move at over a settling step taken without evaluating the rates
 /// ([`SlidingStep::reached_without_rates`]).
 const SETTLE_GUARD: f64 = 16.0;
+/// The fraction of a short substep by which its last stage's event values stand for
+/// those at its end ([`SlidingStep::settle_from_stage`]): the stage is within about the
+/// tolerance of the end, far less.
+const STAGE_REACH: f64 = 1e-3;
 /// How far within the tolerance the second-order term of a settling step's Taylor
 /// polynomial is to be ([`SlidingStep::short_step`]): its rate of change is an estimate.
 const TAYLOR_MARGIN: f64 = 4.0;
@@ -313,8 +317,8 @@ impl SlidingStep<'_> {
             if steps == 0
                 && self.reached_without_rates(
                     &z_at,
-                    (start_events, events, back),
-                    moved,
+                    (start_events, events),
+                    (moved / back).abs(),
                     (g, i),
                     modes,
                     &candidate,
@@ -327,20 +331,76 @@ impl SlidingStep<'_> {
         None
     }
 
-    /// Whether the first step of [`SlidingStep::settle_on_event`], `moved` seconds from
-    /// the substep's end to `z_at`, put the sticking spring group `(g, i)` on its event
-    /// with no other `candidate` group past its tolerance, known without evaluating the
-    /// rates there (the mode changes at that point, so the next substep's start evaluates
-    /// them anyway). A sticking spring group's event value is a function of its
-    /// deflections alone. Any other group's value moved from its value at the end by at
-    /// most [`SETTLE_GUARD`] times its mean rate over the substep (`start` to `end` over
-    /// `length`) times `moved`, some ten-thousand times shorter; where that could reach
-    /// half its tolerance, the rates are evaluated after all.
+    /// A predicted crossing of a sticking spring group `(g, i)` reached after a short
+    /// substep to it ([`SlidingStep::short_substep`]) from its last stage's rates and
+    /// event values (`stage`, at a point within about the tolerance of the end `z`),
+    /// with no evaluation at the end: its event value there follows from its
+    /// deflections, a Taylor step on (or back) settles it as
+    /// [`SlidingStep::settle_on_event`] does, and [`SlidingStep::reached_without_rates`]
+    /// checks the point reached. The time from `t` and the state there; `None` where any
+    /// of that does not hold (the end is then evaluated).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn settle_from_stage(
+        &self,
+        t: f64,
+        z: &Vector,
+        (start_rates, start_events): (&Vector, &Events),
+        (stage_rates, stage_events): (&Vector, &Events),
+        (g, i): (usize, usize),
+        modes: &Modes,
+        (back, on): (f64, f64),
+        candidate: impl Fn(usize, usize) -> bool,
+    ) -> Option<(f64, Vector)> {
+        let slot = self.slots().iter().find(|s| (s.group, s.branch) == (g, i))?;
+        if modes[g][i] || slot.law.damped() {
+            return None;
+        }
+        let value = slot.utilisation(z) - 1.0;
+        let (moved, z_at) = if at_event(value) {
+            (0.0, *z)
+        } else {
+            let slope = slot.law.utilisation_rate(&slot.of(z), &slot.of(stage_rates));
+            if slope.is_nan() || slope <= 0.0 {
+                return None;
+            }
+            let dt = (AIM - value) / slope;
+            if !(dt > -back && dt < on) {
+                return None;
+            }
+            let mut rate_change = [0.0; SIZE];
+            for c in 0..self.size() {
+                rate_change[c] = (stage_rates[c] - start_rates[c]) / back;
+            }
+            (dt, self.short_step(t, z, (stage_rates, &rate_change), dt, modes)?)
+        };
+        // The other groups' values are the stage's, a point about the tolerance from the
+        // end: a thousandth of the substep more than the step's own reach covers it.
+        let reach = (moved / back).abs() + STAGE_REACH;
+        self.reached_without_rates(
+            &z_at,
+            (start_events, stage_events),
+            reach,
+            (g, i),
+            modes,
+            &candidate,
+        )
+        .then_some((moved, z_at))
+    }
+
+    /// Whether a step `reach` times a substep's length from the substep's end to `z_at`
+    /// (the first of [`SlidingStep::settle_on_event`]) put the sticking spring group
+    /// `(g, i)` on its event with no other `candidate` group past its tolerance, known
+    /// without evaluating the rates there (the mode changes at that point, so the next
+    /// substep's start evaluates them anyway). A sticking spring group's event value is a
+    /// function of its deflections alone. Any other group's value moved from its value
+    /// at the end by at most [`SETTLE_GUARD`] times its mean rate over the substep
+    /// (`start` to `end`) times the reach, some ten-thousand times shorter; where that
+    /// could reach half its tolerance, the rates are evaluated after all.
     fn reached_without_rates(
         &self,
         z_at: &Vector,
-        (start, end, length): (&Events, &Events, f64),
-        moved: f64,
+        (start, end): (&Events, &Events),
+        reach: f64,
         (g, i): (usize, usize),
         modes: &Modes,
         candidate: impl Fn(usize, usize) -> bool,
@@ -359,9 +419,7 @@ impl SlidingStep<'_> {
                 } else if value > EVENT_TOLERANCE {
                     return false;
                 }
-            } else if this
-                || end[h][j] + SETTLE_GUARD * (end[h][j] - start[h][j]).abs() * (moved / length).abs() > LEVEL
-            {
+            } else if this || end[h][j] + SETTLE_GUARD * (end[h][j] - start[h][j]).abs() * reach > LEVEL {
                 return false;
             }
         }

@@ -31,6 +31,19 @@ pub(super) type Row = (Vector, Option<Interior>, Option<Interior>, f64);
 /// A substep taken: its end, the factor by which the next may grow, where a limit may
 /// have been touched inside it, and the spacing of the samples that found it.
 pub(super) type Taken = (Vector, f64, Option<Interior>, f64);
+
+/// What a substep knows of its end besides the state there. (On the stack for one
+/// substep; boxing the stage's values would allocate.)
+#[allow(clippy::large_enum_variant)]
+pub(super) enum End {
+    /// Nothing more: the end is to be evaluated.
+    Unknown,
+    /// Sampled with every group clear of its event (an exponential substep's `U3`).
+    Clear,
+    /// The rates and event values of Kutta's last stage ([`SlidingStep::short_substep`]),
+    /// at a point within about the tolerance of the end.
+    Staged(Vector, Events),
+}
 /// The largest size of `values`.
 pub(super) fn largest_of(values: &[f64]) -> f64 {
     values.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
@@ -107,8 +120,8 @@ impl SlidingStep<'_> {
     ///   step first ([`SlidingStep::short_substep`]), two evaluations where the midpoint
     ///   rows take six; those follow if it is not accurate.
     ///
-    /// A stiff step's substeps are all linearly implicit. Also whether the substep's end
-    /// was sampled with every group clear of its event there (an exponential one's, `U3`).
+    /// A stiff step's substeps are all linearly implicit. Also what is known of the
+    /// substep's end ([`End`]).
     pub(super) fn substep(
         &self,
         t: f64,
@@ -117,28 +130,28 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
         toward: Toward,
-    ) -> Option<(Taken, bool)> {
+    ) -> Option<(Taken, End)> {
         if !self.stiff.get() {
             match toward {
                 Toward::NoEvent if self.exponential_suited() => {
                     match self.exponential_substep(t, z, start, length, modes, true) {
                         Exponential::Taken(end, growth) => {
-                            return Some(((end, growth, None, 0.5 * length), true));
+                            return Some(((end, growth, None, 0.5 * length), End::Clear));
                         }
                         Exponential::TooLong => self.exponential_declined.set(true),
                         Exponential::NotSuited => {}
                     }
                 }
                 Toward::NearEvent => {
-                    if let Some(taken) = self.short_substep(t, z, start, length, modes) {
-                        return Some((taken, false));
+                    if let Some((taken, (rates, events))) = self.short_substep(t, z, start, length, modes) {
+                        return Some((taken, End::Staged(rates, events)));
                     }
                 }
                 _ => {}
             }
         }
         self.substep_by(t, z, start, length, modes, true)
-            .map(|taken| (taken, false))
+            .map(|taken| (taken, End::Unknown))
     }
 
     /// Whether a substep may be exponential: an explicit step (the linearly implicit one
@@ -154,7 +167,7 @@ impl SlidingStep<'_> {
     /// order, from the same middle stage, gives the error estimate. `None` if it is not
     /// within the tolerance. The middle stage samples the event values, as the
     /// extrapolated rows' stages do. (Explicit Euler extrapolation took three
-    /// evaluations to the same order.)
+    /// evaluations to the same order.) Also the last stage's rates and event values.
     fn short_substep(
         &self,
         t: f64,
@@ -162,7 +175,7 @@ impl SlidingStep<'_> {
         (start_rates, start_events): (&Vector, &Events),
         length: f64,
         modes: &Modes,
-    ) -> Option<Taken> {
+    ) -> Option<(Taken, (Vector, Events))> {
         let size = self.size();
         let mut search = InteriorSearch::new(start_events);
         let middle = self.advanced(z, start_rates, 0.5 * length);
@@ -172,7 +185,7 @@ impl SlidingStep<'_> {
         for c in 0..size {
             end[c] += length * (2.0 * middle_rates[c] - start_rates[c]);
         }
-        let (end_rates, _) = self.rates(t + length, &end, modes);
+        let (end_rates, end_events) = self.rates(t + length, &end, modes);
         let mut third = *z;
         for c in 0..size {
             third[c] += length * (start_rates[c] + 4.0 * middle_rates[c] + end_rates[c]) / 6.0;
@@ -187,7 +200,10 @@ impl SlidingStep<'_> {
         // a third of the tolerance next time.
         let growth = 0.9 * (3.0 * error).max(1e-10).powf(-0.25);
         let (interior, closest) = search.found();
-        Some((third, growth.clamp(0.2, 4.0), interior.or(closest), 0.5 * length))
+        Some((
+            (third, growth.clamp(0.2, 4.0), interior.or(closest), 0.5 * length),
+            (end_rates, end_events),
+        ))
     }
 
     /// `n` steps of `s = length / n` over `[t, t + length]`, each moving the state by

@@ -56,7 +56,7 @@ use super::group::{
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector, by_state_count};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
-use extrapolation::Toward;
+use extrapolation::{End, Toward};
 
 /// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
@@ -678,7 +678,7 @@ impl<'a> SlidingStep<'a> {
                 Some(_) if length <= SHORT * longest => Toward::NearEvent,
                 Some(_) => Toward::Event,
             };
-            let Some(((mut z_end, growth, interior, spacing), end_clear)) =
+            let Some(((mut z_end, growth, interior, spacing), end)) =
                 self.substep(t, &z, start, length, &modes, toward)
             else {
                 length *= 0.25;
@@ -689,11 +689,35 @@ impl<'a> SlidingStep<'a> {
             };
             // A substep to the step's end whose end was sampled clear of every event: the
             // end's evaluation would only look for events there.
-            if end_clear && t + length >= h {
+            if matches!(end, End::Clear) && t + length >= h {
                 z = z_end;
                 t = h;
                 self.hold_on_limits(&mut z, &modes);
                 break;
+            }
+            // A short substep to a sticking spring group's predicted crossing, nothing else
+            // near inside it: settled from its last stage, with no evaluation of its end.
+            let may_change = |g: usize, i: usize| changes[g][i] < MAX_CHANGES_AT_AN_INSTANT;
+            if let End::Staged(stage_rates, stage_events) = &end
+                && let Some((_, g, i)) = predicted
+                && interior.is_none_or(|(_, ig, ii)| (ig, ii) == (g, i))
+                && let Some((dt, z_at)) = self.settle_from_stage(
+                    t + length,
+                    &z_end,
+                    start,
+                    (stage_rates, stage_events),
+                    (g, i),
+                    &modes,
+                    (length, h - t - length),
+                    may_change,
+                )
+            {
+                z = z_at;
+                t += length + dt;
+                changes = [[0; MAX_BRANCHES]; Group::COUNT];
+                length = planned;
+                self.switch_mode(&mut z, &mut modes, &mut changes, (g, i));
+                continue;
             }
             let (end_rates, mut end_events) = self.rates(t + length, &z_end, &modes);
             // A limit touched and left again inside the substep: end the substep at the
@@ -724,7 +748,6 @@ impl<'a> SlidingStep<'a> {
             // The predicted crossing reached (within the tolerance, before any other):
             // the group changes mode at the end of the substep; missed by a little, a
             // short step on from there (or back) reaches it.
-            let may_change = |g: usize, i: usize| changes[g][i] < MAX_CHANGES_AT_AN_INSTANT;
             let settled = predicted.and_then(|(_, g, i)| {
                 if self
                     .other_past_tolerance(&end_events, (g, i), may_change)
