@@ -352,10 +352,7 @@ impl SlidingStep<'_> {
         candidate: impl Fn(usize, usize) -> bool,
     ) -> Option<(f64, Vector)> {
         let slot = self.slots().iter().find(|s| (s.group, s.branch) == (g, i))?;
-        if modes[g][i] || slot.law.damped() {
-            return None;
-        }
-        let value = slot.utilisation(z) - 1.0;
+        let value = slot.event_from_deflections(z, modes)?;
         let (moved, z_at) = if at_event(value) {
             (0.0, *z)
         } else {
@@ -367,10 +364,7 @@ impl SlidingStep<'_> {
             if !(dt > -back && dt < on) {
                 return None;
             }
-            let mut rate_change = [0.0; SIZE];
-            for c in 0..self.size() {
-                rate_change[c] = (stage_rates[c] - start_rates[c]) / back;
-            }
+            let rate_change = self.rate_change(start_rates, stage_rates, back);
             (dt, self.short_step(t, z, (stage_rates, &rate_change), dt, modes)?)
         };
         // The other groups' values are the stage's, a point about the tolerance from the
@@ -412,18 +406,31 @@ impl SlidingStep<'_> {
             if !this && !candidate(h, j) {
                 continue;
             }
-            if !modes[h][j] && !slot.law.damped() {
-                let value = slot.utilisation(z_at) - 1.0;
-                if this {
-                    reached = at_event(value);
-                } else if value > EVENT_TOLERANCE {
-                    return false;
+            match slot.event_from_deflections(z_at, modes) {
+                Some(value) if this => reached = at_event(value),
+                Some(value) => {
+                    if value > EVENT_TOLERANCE {
+                        return false;
+                    }
                 }
-            } else if this || end[h][j] + SETTLE_GUARD * (end[h][j] - start[h][j]).abs() * reach > LEVEL {
-                return false;
+                None => {
+                    if this || end[h][j] + SETTLE_GUARD * (end[h][j] - start[h][j]).abs() * reach > LEVEL {
+                        return false;
+                    }
+                }
             }
         }
         reached
+    }
+
+    /// How fast the rates changed over a substep of `length` from `start` to `end`, per
+    /// second: the second-order term of a settling step ([`SlidingStep::short_step`]).
+    pub(super) fn rate_change(&self, start: &Vector, end: &Vector, length: f64) -> Vector {
+        let mut change = [0.0; SIZE];
+        for c in 0..self.size() {
+            change[c] = (end[c] - start[c]) / length;
+        }
+        change
     }
 
     /// The first `candidate` group and branch other than `(g, i)` past its tolerance in
@@ -492,7 +499,7 @@ impl SlidingStep<'_> {
         let mut known = [[false; MAX_BRANCHES]; Group::COUNT];
         for slot in self.slots() {
             let (g, i) = (slot.group, slot.branch);
-            if modes[g][i] || slot.law.damped() {
+            if modes[g][i] || slot.law.damped() || !needed(g, i) {
                 continue;
             }
             slopes[g][i] = slot.law.utilisation_rate(&slot.of(z), &slot.of(rates));

@@ -296,6 +296,13 @@ impl Slot {
         of
     }
 
+    /// A sticking spring group's event value at `z`: its utilisation less one, a function
+    /// of its deflections alone. `None` for a sliding or damped group, whose value needs
+    /// the rates.
+    fn event_from_deflections(&self, z: &Vector, modes: &Modes) -> Option<f64> {
+        (!modes[self.group][self.branch] && !self.law.damped()).then(|| self.utilisation(z) - 1.0)
+    }
+
     /// The utilisation of a spring group's forces at its deflections in `z`.
     fn utilisation(&self, z: &Vector) -> f64 {
         let input = GroupInput {
@@ -755,10 +762,7 @@ impl<'a> SlidingStep<'a> {
                 {
                     return None;
                 }
-                let mut rate_change = [0.0; SIZE];
-                for c in 0..self.size() {
-                    rate_change[c] = (end_rates[c] - start_rates[c]) / length;
-                }
+                let rate_change = self.rate_change(&start_rates, &end_rates, length);
                 self.settle_on_event(
                     t + length,
                     &z_end,
