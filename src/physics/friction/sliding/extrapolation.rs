@@ -296,8 +296,7 @@ impl SlidingStep<'_> {
 
     /// Polynomial extrapolation of the rows `row_of(n)` for the step counts `sequence`,
     /// whose errors expand in powers of `(length / n)^power`, until two rows agree to the
-    /// tolerance; `None` if they do not, or (midpoint rows) as soon as their estimates stop
-    /// falling.
+    /// tolerance; `None` if they do not, or as soon as their estimates stop falling.
     pub(super) fn extrapolate<const ROWS: usize>(
         &self,
         z: &Vector,
@@ -340,11 +339,12 @@ impl SlidingStep<'_> {
                     let interior = if look_inside { interior.or(closest) } else { None };
                     return Some((table[j], growth.clamp(0.2, 4.0), interior, spacing));
                 }
-                // Within their range of convergence the midpoint rows' estimates fall by
-                // a large factor a row. One that does not even halve shows a substep too
-                // long for them (a fast turn of a sliding force): a later row could agree
-                // with its neighbour by chance, far from the solution. A shorter substep.
-                if power == 2 && error > 0.5 * previous_error {
+                // Within their range of convergence the rows' estimates fall by a large
+                // factor a row. One that does not even halve shows a substep too long for
+                // them (a fast turn of a sliding force, a stiff slide's stall): a later
+                // row could agree with its neighbour by chance, far from the solution. A
+                // shorter substep.
+                if error > 0.5 * previous_error {
                     return None;
                 }
                 previous_error = error;
