@@ -90,8 +90,12 @@ pub type Members = [f64; MAX_MEMBERS];
 pub struct RateSlopes {
     pub by_deflection: [Members; MAX_MEMBERS],
     pub by_sticking_rate: [Members; MAX_MEMBERS],
-    /// A sliding spring group's slider rate along its normal, `lambda` (zero otherwise).
-    pub multiplier: f64,
+    /// How fast a sliding spring group's slider returns its least-moved member's force
+    /// to the ellipse, `|lambda| min_k K_k / L_k^2` (1/s; zero for one member, sticking
+    /// or damped). Where it is not small against a substep, both members' sliders move
+    /// and the force turns along the ellipse as the slip turns: the rates are bilinear
+    /// in the deflections and `lambda`.
+    pub least_return_rate: f64,
 }
 
 /// Newton steps of the damped projection before it falls back to the monotone search.
@@ -412,21 +416,6 @@ impl<'a> GroupInput<'a> {
         slopes
     }
 
-    /// How fast a sliding spring group's slider, moving at `multiplier` along its normal
-    /// ([`RateSlopes::multiplier`]), moves its least-moved member: `min_k |lambda| K_k /
-    /// L_k^2` (1/s), the rate at which that member's force is returned to the ellipse.
-    /// Zero for a group of one member. Where it is not small against a substep, both
-    /// members' sliders move, the force turns along the ellipse as the slip turns, and
-    /// the rates are bilinear in the deflections and `lambda`.
-    pub fn least_return_rate(&self, multiplier: f64) -> f64 {
-        if self.count < 2 {
-            return 0.0;
-        }
-        self.members()
-            .map(|k| multiplier.abs() * self.stiffness[k] * self.inverse_limit[k] * self.inverse_limit[k])
-            .fold(f64::INFINITY, f64::min)
-    }
-
     /// A sliding spring group, `db_k/dt = g_k - lambda n_k` with `n = K b / L^2` and
     /// `lambda = A / N`, `A = sum n K g`, `N = sum n K n`: with `c_j = K_j / L_j^2`,
     /// `d lambda / d g_j = n_j K_j / N` and `d lambda / d b_j = c_j K_j (g_j - 2 lambda
@@ -436,9 +425,10 @@ impl<'a> GroupInput<'a> {
         if flow.stiffness_along > 0.0 {
             let inverse_norm = flow.stiffness_along.recip();
             let lambda = flow.along * inverse_norm;
-            slopes.multiplier = lambda;
+            let mut least_curvature = f64::INFINITY;
             for j in self.members() {
                 let curvature = self.stiffness[j] * self.inverse_limit[j] * self.inverse_limit[j];
+                least_curvature = least_curvature.min(curvature);
                 let by_rate = flow.normal[j] * self.stiffness[j] * inverse_norm;
                 let by_deflection = curvature
                     * self.stiffness[j]
@@ -449,6 +439,9 @@ impl<'a> GroupInput<'a> {
                     slopes.by_deflection[k][j] = -flow.normal[k] * by_deflection;
                 }
                 slopes.by_deflection[j][j] -= lambda * curvature;
+            }
+            if self.count >= 2 {
+                slopes.least_return_rate = lambda.abs() * least_curvature;
             }
         }
     }

@@ -61,7 +61,7 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 
 /// The band of turns in which an exponential substep is not tried: a sliding spring
 /// group's least-moved member returned to the ellipse by between a thousandth of its
-/// deflection and twice it over the substep ([`GroupInput::least_return_rate`] times the
+/// deflection and twice it over the substep ([`RateSlopes::least_return_rate`] times the
 /// length, the largest over the groups). There the group slides in two directions (a
 /// friction ellipse about as long as it is wide, as any tire's with muX close to muY, at
 /// any longitudinal slip) and its force turns towards the slip on a time scale within the
@@ -73,7 +73,7 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 /// attempt), 93 % of SecondOrder's and 99 % of RingBody's attempts inside the band
 /// failed, and 43 % of RingBody's above it were taken.
 ///
-/// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
+/// [`RateSlopes::least_return_rate`]: crate::physics::friction::group::RateSlopes::least_return_rate
 const TURNING_BAND: (f64, f64) = (1e-3, 2.0);
 
 /// How an exponential substep ended.
@@ -81,7 +81,8 @@ pub(super) enum Exponential {
     /// Accurate: the end, and the factor by which the next substep may grow.
     Taken(Vector, f64),
     /// Its error estimate is past the tolerance: the piece is further from linear than a
-    /// fourth-order step of this length takes.
+    /// fourth-order step of this length takes. Also, without the attempt, where a force
+    /// turns on its ellipse within the substep ([`TURNING_BAND`]).
     TooLong,
     /// A limit is near inside it, or the series would be long: the extrapolation takes it.
     NotSuited,

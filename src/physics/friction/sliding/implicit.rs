@@ -50,8 +50,11 @@ pub(super) struct Jacobian<'s> {
     blocks: [[Members; MAX_MEMBERS]; MAX_TOGETHER],
     /// The step's slots, whose entries the blocks are over.
     slots: &'s [Slot],
-    /// The fastest [`GroupInput::least_return_rate`] of a sliding spring group (1/s):
-    /// how fast a force sliding in two directions turns on its ellipse.
+    /// The fastest return of a sliding spring group's least-moved member (1/s,
+    /// [`RateSlopes::least_return_rate`]): how fast a force sliding in two directions
+    /// turns on its ellipse.
+    ///
+    /// [`RateSlopes::least_return_rate`]: crate::physics::friction::group::RateSlopes::least_return_rate
     pub(super) turning_rate: f64,
 }
 
@@ -92,9 +95,7 @@ impl SlidingStep<'_> {
         for (slot_index, slot) in self.slots().iter().enumerate() {
             let input = self.slot_input(slot, &x, &x_rates, z);
             let slopes = input.rate_slopes(modes[slot.group][slot.branch], &slot.of(rates));
-            jacobian.turning_rate = jacobian
-                .turning_rate
-                .max(input.least_return_rate(slopes.multiplier));
+            jacobian.turning_rate = jacobian.turning_rate.max(slopes.least_return_rate);
             for m in slot.law.members() {
                 // Member m's sticking rate moves with the states by `A_k - r e_k` and with
                 // its own entry by `r`.
