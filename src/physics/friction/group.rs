@@ -90,12 +90,6 @@ pub type Members = [f64; MAX_MEMBERS];
 pub struct RateSlopes {
     pub by_deflection: [Members; MAX_MEMBERS],
     pub by_sticking_rate: [Members; MAX_MEMBERS],
-    /// How fast a sliding spring group's slider returns its least-moved member's force
-    /// to the ellipse, `|lambda| min_k K_k / L_k^2` (1/s; zero for one member, sticking
-    /// or damped). Where it is not small against a substep, both members' sliders move
-    /// and the force turns along the ellipse as the slip turns: the rates are bilinear
-    /// in the deflections and `lambda`.
-    pub least_return_rate: f64,
 }
 
 /// Newton steps of the damped projection before it falls back to the monotone search.
@@ -425,10 +419,8 @@ impl<'a> GroupInput<'a> {
         if flow.stiffness_along > 0.0 {
             let inverse_norm = flow.stiffness_along.recip();
             let lambda = flow.along * inverse_norm;
-            let mut least_curvature = f64::INFINITY;
             for j in self.members() {
                 let curvature = self.stiffness[j] * self.inverse_limit[j] * self.inverse_limit[j];
-                least_curvature = least_curvature.min(curvature);
                 let by_rate = flow.normal[j] * self.stiffness[j] * inverse_norm;
                 let by_deflection = curvature
                     * self.stiffness[j]
@@ -440,10 +432,27 @@ impl<'a> GroupInput<'a> {
                 }
                 slopes.by_deflection[j][j] -= lambda * curvature;
             }
-            if self.count >= 2 {
-                slopes.least_return_rate = lambda.abs() * least_curvature;
-            }
         }
+    }
+
+    /// How fast a sliding spring group's slider returns its least-moved member's force
+    /// to the ellipse, `|lambda| min_k K_k / L_k^2` (1/s; zero for one member, sticking
+    /// or damped; `lambda` as in [`GroupInput::rate_slopes`]). Where it is not small
+    /// against a substep, both members' sliders move and the force turns along the
+    /// ellipse as the slip turns: the rates are bilinear in the deflections and `lambda`.
+    pub fn least_return_rate(&self, sliding: bool) -> f64 {
+        if !sliding || self.damped() || self.count < 2 {
+            return 0.0;
+        }
+        let flow = self.flow(&self.spring_force());
+        if flow.stiffness_along <= 0.0 {
+            return 0.0;
+        }
+        let least_curvature = self
+            .members()
+            .map(|j| self.stiffness[j] * self.inverse_limit[j] * self.inverse_limit[j])
+            .fold(f64::INFINITY, f64::min);
+        (flow.along / flow.stiffness_along).abs() * least_curvature
     }
 
     /// A sliding damped group, `Dw_k db_k/dt = F_k - K_k b_k` with `F_k = T_k / q_k`,

@@ -61,7 +61,7 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 
 /// The band of turns in which an exponential substep is not tried: a sliding spring
 /// group's least-moved member returned to the ellipse by between a thousandth of its
-/// deflection and twice it over the substep ([`RateSlopes::least_return_rate`] times the
+/// deflection and twice it over the substep ([`GroupInput::least_return_rate`] times the
 /// length, the largest over the groups). There the group slides in two directions (a
 /// friction ellipse about as long as it is wide, as any tire's with muX close to muY, at
 /// any longitudinal slip) and its force turns towards the slip on a time scale within the
@@ -73,7 +73,7 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 /// attempt), 93 % of SecondOrder's and 99 % of RingBody's attempts inside the band
 /// failed, and 43 % of RingBody's above it were taken.
 ///
-/// [`RateSlopes::least_return_rate`]: crate::physics::friction::group::RateSlopes::least_return_rate
+/// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
 const TURNING_BAND: (f64, f64) = (1e-3, 2.0);
 
 /// How an exponential substep ended.
@@ -223,11 +223,13 @@ impl SlidingStep<'_> {
         modes: &Modes,
         look_inside: bool,
     ) -> Exponential {
-        let jacobian = self.jacobian(t, z, start_rates, modes);
-        let turn = jacobian.turning_rate * length;
+        // Checked before the Jacobian is made: in a combined slide the band declines
+        // nearly every attempt.
+        let turn = self.turning_rate(t, z, modes) * length;
         if turn > TURNING_BAND.0 && turn < TURNING_BAND.1 {
             return Exponential::TooLong;
         }
+        let jacobian = self.jacobian(t, z, start_rates, modes);
         let largest = largest_of(z);
         let linear = Linearisation::new(jacobian.scaled_columns::<E>(length), length, self.scale, largest);
         let mut search = InteriorSearch::new(start_events);
@@ -261,6 +263,23 @@ impl SlidingStep<'_> {
             }
             (false, _) => Exponential::TooLong,
         }
+    }
+}
+
+impl SlidingStep<'_> {
+    /// The fastest return of a sliding spring group's least-moved member at `z` (1/s,
+    /// [`GroupInput::least_return_rate`]): how fast a force sliding in two directions
+    /// turns on its ellipse.
+    ///
+    /// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
+    fn turning_rate(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
+        let x = self.layout.model_states(z);
+        let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
+        self.slots()
+            .iter()
+            .filter(|slot| modes[slot.group][slot.branch])
+            .map(|slot| self.slot_input(slot, &x, &x_rates, z).least_return_rate(true))
+            .fold(0.0, f64::max)
     }
 }
 

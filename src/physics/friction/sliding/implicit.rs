@@ -50,12 +50,6 @@ pub(super) struct Jacobian<'s> {
     blocks: [[Members; MAX_MEMBERS]; MAX_TOGETHER],
     /// The step's slots, whose entries the blocks are over.
     slots: &'s [Slot],
-    /// The fastest return of a sliding spring group's least-moved member (1/s,
-    /// [`RateSlopes::least_return_rate`]): how fast a force sliding in two directions
-    /// turns on its ellipse.
-    ///
-    /// [`RateSlopes::least_return_rate`]: crate::physics::friction::group::RateSlopes::least_return_rate
-    pub(super) turning_rate: f64,
 }
 
 /// What a step of length `s` solves with: `B^-1` by slot, and `C^-1`.
@@ -83,7 +77,6 @@ impl SlidingStep<'_> {
             made_by_state: [[0.0; MAX_STATES]; MAX_STATES],
             blocks: [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_TOGETHER],
             slots: self.slots(),
-            turning_rate: 0.0,
         };
         for j in 0..layout.free_count {
             for l in 0..states {
@@ -95,7 +88,6 @@ impl SlidingStep<'_> {
         for (slot_index, slot) in self.slots().iter().enumerate() {
             let input = self.slot_input(slot, &x, &x_rates, z);
             let slopes = input.rate_slopes(modes[slot.group][slot.branch], &slot.of(rates));
-            jacobian.turning_rate = jacobian.turning_rate.max(slopes.least_return_rate);
             for m in slot.law.members() {
                 // Member m's sticking rate moves with the states by `A_k - r e_k` and with
                 // its own entry by `r`.
