@@ -72,17 +72,23 @@ impl SlidingStep<'_> {
     ) -> Row {
         let h = length / n as f64;
         let size = self.size();
-        let mut previous = *z;
-        let mut current = self.advanced(z, start_rates, h);
+        // The last two points, `z_m` at `m % 2`: each next point is made in place of the
+        // one before the current, not copied along.
+        let mut points = [*z, self.advanced(z, start_rates, h)];
         let mut search = InteriorSearch::new(start_events);
         for m in 1..n {
-            let (rates, events) = self.rates(t + m as f64 * h, &current, modes);
+            let (rates, events) = self.rates(t + m as f64 * h, &points[m % 2], modes);
             search.sample(m, h, &events);
-            let next = self.advanced(&previous, &rates, 2.0 * h);
-            previous = current;
-            current = next;
+            // Over every entry, in pairs: the rates past the entries in use are zero, so
+            // those entries stay as they are, and the loop has a known length.
+            let before = &mut points[(m + 1) % 2];
+            for (pair, rates) in before.chunks_exact_mut(2).zip(rates.chunks_exact(2)) {
+                let moved = [pair[0] + 2.0 * h * rates[0], pair[1] + 2.0 * h * rates[1]];
+                pair.copy_from_slice(&moved);
+            }
         }
-        let (rates, _) = self.rates(t + length, &current, modes);
+        let (current, previous) = (&points[n % 2], &points[(n + 1) % 2]);
+        let (rates, _) = self.rates(t + length, current, modes);
         let mut out = [0.0; SIZE];
         for k in 0..size {
             out[k] = 0.5 * (current[k] + previous[k] + h * rates[k]);
