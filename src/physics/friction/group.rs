@@ -322,6 +322,57 @@ impl GroupLaw {
         sum
     }
 
+    /// A spring group's deflection rates and event value in its mode, at deflections
+    /// `deflection` and sticking rates `sticking_rate` (the law of the module's doc):
+    /// sticking, the sticking rates and the utilisation less one; sliding, the rates
+    /// along the ellipse and minus the outward cosine.
+    #[inline]
+    pub fn spring_rates(
+        &self,
+        deflection: &Members,
+        sticking_rate: &Members,
+        sliding: bool,
+    ) -> (Members, f64) {
+        let mut force = [0.0; MAX_MEMBERS];
+        for k in 0..MAX_MEMBERS {
+            force[k] = self.stiffness[k] * deflection[k];
+        }
+        if !sliding {
+            return (*sticking_rate, self.utilisation(&force) - 1.0);
+        }
+        let flow = self.flow(&force, sticking_rate);
+        let lambda = if flow.stiffness_along > 0.0 {
+            flow.along / flow.stiffness_along
+        } else {
+            0.0
+        };
+        let mut rate = [0.0; MAX_MEMBERS];
+        for k in 0..MAX_MEMBERS {
+            rate[k] = sticking_rate[k] - lambda * flow.normal[k];
+        }
+        (rate, -flow.cosine)
+    }
+
+    /// What the sliding law needs at spring forces `force` and sticking rates
+    /// `sticking_rate`: the normal `n = F / L^2`, `n.K g`, `n.K n`, and the cosine of `n`
+    /// and `K g`. Sliding, the slider moves along `n` at `lambda = n.K g / n.K n`.
+    #[inline]
+    fn flow(&self, force: &Members, sticking_rate: &Members) -> Flow {
+        let mut flow = Flow::default();
+        let (mut normal_norm, mut rate_norm) = (0.0, 0.0);
+        for k in 0..MAX_MEMBERS {
+            let normal = force[k] * (self.inverse_limit[k] * self.inverse_limit[k]);
+            let force_rate = self.stiffness[k] * sticking_rate[k];
+            flow.normal[k] = normal;
+            flow.along += normal * force_rate;
+            flow.stiffness_along += normal * self.stiffness[k] * normal;
+            normal_norm += normal * normal;
+            rate_norm += force_rate * force_rate;
+        }
+        flow.cosine = outward_cosine_from(flow.along, normal_norm, rate_norm);
+        flow
+    }
+
     /// The rate of a spring group's utilisation `sum (K_k b_k / L_k)^2` where its
     /// deflections `b` move at `rate`.
     pub fn utilisation_rate(&self, deflection: &Members, rate: &Members) -> f64 {
@@ -495,28 +546,13 @@ impl<'a> GroupInput<'a> {
 
     #[inline]
     fn evaluate_springs(&self, sliding: bool) -> GroupOutput {
-        let force = self.spring_force();
-        if !sliding {
-            return GroupOutput {
-                rate: self.sticking_rate,
-                force,
-                event: self.utilisation(&force) - 1.0,
-            };
-        }
-        let flow = self.flow(&force);
-        let lambda = if flow.stiffness_along > 0.0 {
-            flow.along / flow.stiffness_along
-        } else {
-            0.0
-        };
-        let mut rate = [0.0; MAX_MEMBERS];
-        for k in 0..MAX_MEMBERS {
-            rate[k] = self.sticking_rate[k] - lambda * flow.normal[k];
-        }
+        let (rate, event) = self
+            .law
+            .spring_rates(&self.deflection, &self.sticking_rate, sliding);
         GroupOutput {
             rate,
-            force,
-            event: -flow.cosine,
+            force: self.spring_force(),
+            event,
         }
     }
 
@@ -527,23 +563,9 @@ impl<'a> GroupInput<'a> {
         self.flow(force).cosine
     }
 
-    /// What the sliding law needs at spring forces `force`: the normal `n = F / L^2`,
-    /// `n.K g`, `n.K n`, and the cosine of `n` and `K g`. Sliding, the slider moves along
-    /// `n` at `lambda = n.K g / n.K n`.
+    /// [`GroupLaw::flow`] at its sticking rates.
     fn flow(&self, force: &Members) -> Flow {
-        let mut flow = Flow::default();
-        let (mut normal_norm, mut rate_norm) = (0.0, 0.0);
-        for k in 0..MAX_MEMBERS {
-            let normal = force[k] * (self.inverse_limit[k] * self.inverse_limit[k]);
-            let force_rate = self.stiffness[k] * self.sticking_rate[k];
-            flow.normal[k] = normal;
-            flow.along += normal * force_rate;
-            flow.stiffness_along += normal * self.stiffness[k] * normal;
-            normal_norm += normal * normal;
-            rate_norm += force_rate * force_rate;
-        }
-        flow.cosine = outward_cosine_from(flow.along, normal_norm, rate_norm);
-        flow
+        self.law.flow(force, &self.sticking_rate)
     }
 
     /// In each mode the formulas continue smoothly past the event (a sticking group

@@ -70,21 +70,6 @@ pub(super) fn peak_between(first: &Events, middle: &Events, last: &Events) -> Op
     None
 }
 
-/// Whether [`peak_between`] may find a peak: the parabola's peak within the samples is at
-/// most `e1 + |e2 - e0| / 4` above the middle one (at `|s| <= 1` its rise is
-/// `|slope| |s| / 2`), so where that bound is within the tolerance for every group there
-/// is none. One pass without a branch each; a group that does not exist gives no bound.
-fn may_peak(first: &Events, middle: &Events, last: &Events) -> bool {
-    let (first, middle, last) = (first.as_flattened(), middle.as_flattened(), last.as_flattened());
-    let mut highest = f64::NEG_INFINITY;
-    for k in 0..first.len() {
-        let bound = middle[k] + 0.25 * (last[k] - first[k]).abs();
-        // NaN (no such group) leaves `highest` as it was.
-        highest = highest.max(bound);
-    }
-    highest > EVENT_TOLERANCE
-}
-
 /// Where within a substep a limit may have been touched, from the event values at the
 /// samples of one integration row: the first sample past the tolerance, or a peak past it
 /// between three consecutive samples, else the sample closest to its limit (within
@@ -92,7 +77,10 @@ fn may_peak(first: &Events, middle: &Events, last: &Events) -> bool {
 pub(super) struct InteriorSearch {
     interior: Option<Interior>,
     closest: Option<(f64, usize, usize, f64)>,
+    /// The event values of the last two samples, the older at `older`: each sample
+    /// takes the older's place.
     recent: [Events; 2],
+    older: usize,
     samples: usize,
 }
 
@@ -103,6 +91,7 @@ impl InteriorSearch {
             interior: None,
             closest: None,
             recent: [*start_events, *start_events],
+            older: 0,
             samples: 0,
         }
     }
@@ -112,30 +101,41 @@ impl InteriorSearch {
     pub(super) fn sample(&mut self, index: usize, spacing: f64, events: &Events) {
         self.samples += 1;
         let at = index as f64 * spacing;
-        if self.interior.is_none() {
-            self.interior = first_past_tolerance(events).map(|(g, i)| (at, g, i));
-        }
-        if self.interior.is_none() && self.samples >= 2 && may_peak(&self.recent[0], &self.recent[1], events)
-        {
-            self.interior = peak_between(&self.recent[0], &self.recent[1], events)
-                .map(|(s, g, i)| ((index as f64 - 1.0 + s) * spacing, g, i));
-        }
-        // Usually none is near: one pass over the values to see that, without a branch each.
-        let highest = events
+        let (first, middle) = (&self.recent[self.older], &self.recent[1 - self.older]);
+        // Usually no value is near its limit, nor can a peak between the last three
+        // samples pass it: one pass without a branch each shows that. The parabola's
+        // peak within the samples is at most `e1 + |e2 - e0| / 4` above the middle one
+        // (at `|s| <= 1` its rise is `|slope| |s| / 2`). A group that does not exist
+        // (NaN or minus infinity) gives no bound.
+        let (mut highest, mut peak_bound) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for ((&e2, &e1), &e0) in events
             .as_flattened()
             .iter()
-            .fold(f64::NEG_INFINITY, |m, &e| m.max(e));
-        if highest > -NEAR_EVENT {
-            for g in 0..Group::COUNT {
-                for i in 0..MAX_BRANCHES {
-                    let e = events[g][i];
-                    if e > -NEAR_EVENT && self.closest.is_none_or(|(_, _, _, best)| e > best) {
-                        self.closest = Some((at, g, i, e));
-                    }
-                }
-            }
+            .zip(middle.as_flattened())
+            .zip(first.as_flattened())
+        {
+            // Plain comparisons (a NaN is never above): `f64::max` orders NaN in five
+            // instructions where one does.
+            let bound = e1 + 0.25 * (e2 - e0).abs();
+            highest = if e2 > highest { e2 } else { highest };
+            peak_bound = if bound > peak_bound { bound } else { peak_bound };
         }
-        self.recent = [self.recent[1], *events];
+        if self.interior.is_none() && highest > EVENT_TOLERANCE {
+            self.interior = first_past_tolerance(events).map(|(g, i)| (at, g, i));
+        }
+        if self.interior.is_none() && self.samples >= 2 && peak_bound > EVENT_TOLERANCE {
+            self.interior = peak_between(first, middle, events)
+                .map(|(s, g, i)| ((index as f64 - 1.0 + s) * spacing, g, i));
+        }
+        // The closest sample is the first group and branch at the highest value.
+        if highest > -NEAR_EVENT
+            && self.closest.is_none_or(|(_, _, _, best)| highest > best)
+            && let Some(k) = events.as_flattened().iter().position(|&e| e == highest)
+        {
+            self.closest = Some((at, k / MAX_BRANCHES, k % MAX_BRANCHES, highest));
+        }
+        self.recent[self.older] = *events;
+        self.older = 1 - self.older;
     }
 
     /// The first interior point past the tolerance, and the sample closest to its limit.

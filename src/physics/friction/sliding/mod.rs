@@ -524,7 +524,44 @@ impl<'a> SlidingStep<'a> {
     /// Rates of every entry, and the groups' event values.
     #[inline]
     fn rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
-        self.rates_adjusted(t, z, modes, |_, _, _, _| {})
+        if self.friction.damped() {
+            self.rates_adjusted(t, z, modes, |_, _, _, _| {})
+        } else {
+            self.spring_rates(t, z, modes)
+        }
+    }
+
+    /// [`SlidingStep::rates`] where every group is of springs (the integration's
+    /// evaluation, many times a step): the law of [`GroupInput::evaluate`] written out
+    /// for a group's two member slots, each slot's rates and event value written where
+    /// they go, the same values.
+    #[inline]
+    fn spring_rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
+        let layout = &self.layout;
+        let x = layout.model_states(z);
+        let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
+        let mut rates = [0.0; SIZE];
+        for j in 0..layout.free_count {
+            rates[j] = x_rates[layout.free[j]];
+        }
+        let mut events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
+        for slot in self.slots() {
+            let law = &slot.law;
+            // A missing member's constants are zero: it adds nothing to the sums.
+            let mut deflection = [0.0; MAX_MEMBERS];
+            let mut sticking_rate = [0.0; MAX_MEMBERS];
+            for m in law.members() {
+                let (b, k) = (z[slot.entries[m]], slot.states[m]);
+                deflection[m] = b;
+                sticking_rate[m] = x_rates[k] + slot.relaxation[m] * (b - x[k]);
+            }
+            let (rate, event) = law.spring_rates(&deflection, &sticking_rate, modes[slot.group][slot.branch]);
+            for m in law.members() {
+                rates[slot.entries[m]] = rate[m];
+            }
+            events[slot.group][slot.branch] = event;
+        }
+        (rates, events)
     }
 
     /// [`SlidingStep::rates`], each slot's rates then passed to `adjust` with its group
