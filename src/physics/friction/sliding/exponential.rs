@@ -367,7 +367,7 @@ pub(super) fn exprb43<const E: usize>(
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::with_settled_slide;
+    use super::super::{extrapolated_in_pieces, with_settled_slide};
     use super::Exponential;
     use crate::physics::friction::FrictionLaw;
     use crate::physics::{ModelKind, Parameter, Parameters};
@@ -410,20 +410,7 @@ mod tests {
             prop_assume!(taken.is_some());
             let (length, exponential) = taken.unwrap();
             prop_assume!(length <= step.longest_substep());
-            // The extrapolated substep, in as many equal pieces (1 to 16) as its error
-            // control takes (as the stepping loop would shorten it).
-            let extrapolated = [1, 2, 4, 8, 16]
-                .into_iter()
-                .find_map(|pieces| {
-                    let piece = length / pieces as f64;
-                    (0..pieces).try_fold(z, |at, k| {
-                        let t = k as f64 * piece;
-                        let (rates, events) = step.rates(t, &at, &modes);
-                        step.substep_by(t, &at, (&rates, &events), piece, &modes, false)
-                            .map(|(end, ..)| end)
-                    })
-                })
-                .expect("the extrapolation takes a substep within its longest in 16 pieces");
+            let extrapolated = extrapolated_in_pieces(step, &z, &modes, length);
             let size = step.size();
             let largest = z[..size].iter().chain(&extrapolated[..size]).fold(travel, |m, v| m.max(v.abs()));
             for c in 0..size {

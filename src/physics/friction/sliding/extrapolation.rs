@@ -5,6 +5,7 @@
 //! in h). The midpoint samples also show where a limit may be touched inside the
 //! substep ([`super::events`]).
 
+use super::dormand_prince::HighOrder;
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
@@ -21,6 +22,10 @@ pub(super) enum Toward {
     /// It ends at a predicted event within a small fraction of the longest substep.
     NearEvent,
 }
+
+/// The factor by which a substep that did not reach the tolerance is shortened, where
+/// its method gives no estimate of its own.
+pub(super) const SHORTER: f64 = 0.25;
 
 /// Midpoint substep counts of the extrapolation rows.
 const SEQUENCE: [usize; 8] = [2, 4, 6, 8, 10, 12, 14, 16];
@@ -144,21 +149,43 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
         toward: Toward,
-    ) -> Option<(Taken, End)> {
+    ) -> Result<(Taken, End), f64> {
         if !self.stiff.get() {
             match toward {
-                Toward::NoEvent if self.exponential_suited() => {
-                    match self.exponential_substep(t, z, start, length, modes, true) {
-                        Exponential::Taken(end, growth) => {
-                            return Some(((end, growth, None, 0.5 * length), End::Clear));
+                Toward::NoEvent => {
+                    if self.exponential_suited() {
+                        match self.exponential_substep(t, z, start, length, modes, true) {
+                            Exponential::Taken(end, growth) => {
+                                return Ok(((end, growth, None, 0.5 * length), End::Clear));
+                            }
+                            Exponential::TooLong => self.exponential_declined.set(true),
+                            Exponential::NotSuited => {}
                         }
-                        Exponential::TooLong => self.exponential_declined.set(true),
-                        Exponential::NotSuited => {}
+                    }
+                    if !self.exponential_suited() && !self.high_order_declined.get() {
+                        match self.high_order_substep(t, z, start, length, modes) {
+                            HighOrder::Taken(end, growth) => {
+                                self.high_order_misses.set(0);
+                                return Ok(((end, growth, None, 0.5 * length), End::Clear));
+                            }
+                            // Too long: tried again as long as its estimate says, by the
+                            // pair again; a second miss in a row leaves the rest of the
+                            // step to the extrapolation.
+                            HighOrder::TooLong(factor) => {
+                                let misses = self.high_order_misses.get() + 1;
+                                self.high_order_misses.set(misses);
+                                if misses < 2 {
+                                    return Err(factor);
+                                }
+                                self.high_order_declined.set(true);
+                            }
+                            HighOrder::NotSuited => {}
+                        }
                     }
                 }
                 Toward::NearEvent => {
                     if let Some((taken, (rates, events))) = self.short_substep(t, z, start, length, modes) {
-                        return Some((taken, End::Staged(rates, events)));
+                        return Ok((taken, End::Staged(rates, events)));
                     }
                 }
                 _ => {}
@@ -166,6 +193,7 @@ impl SlidingStep<'_> {
         }
         self.substep_by(t, z, start, length, modes, true)
             .map(|taken| (taken, End::Unknown))
+            .ok_or(SHORTER)
     }
 
     /// Whether a substep may be exponential: an explicit step (the linearly implicit one

@@ -43,6 +43,7 @@
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
 mod cascade;
+mod dormand_prince;
 mod events;
 mod exponential;
 mod extrapolation;
@@ -441,6 +442,11 @@ pub struct SlidingStep<'a> {
     /// further from linear than its fourth order takes in a few substeps, and the
     /// extrapolation (whose order grows as it needs) takes the rest of the step.
     exponential_declined: Cell<bool>,
+    /// Whether a substep of this step by the eighth-order pair came back too long
+    /// ([`dormand_prince`]): the extrapolation takes the rest of the step.
+    high_order_declined: Cell<bool>,
+    /// Substeps by the eighth-order pair that came back too long in a row.
+    high_order_misses: Cell<u8>,
     /// How fast the groups found sliding at the start move their forces, 1/s
     /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
     start_sliding_rate: Cell<f64>,
@@ -474,6 +480,8 @@ impl<'a> SlidingStep<'a> {
             slots: &laid_out.slots[..laid_out.count],
             stiff: Cell::new(false),
             exponential_declined: Cell::new(false),
+            high_order_declined: Cell::new(false),
+            high_order_misses: Cell::new(0),
             start_sliding_rate: Cell::new(0.0),
         }
     }
@@ -645,6 +653,8 @@ impl<'a> SlidingStep<'a> {
     ) -> Result<(), NotConverged> {
         self.stiff.set(false);
         self.exponential_declined.set(false);
+        self.high_order_declined.set(false);
+        self.high_order_misses.set(0);
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
@@ -722,15 +732,17 @@ impl<'a> SlidingStep<'a> {
                 Some(_) if length <= SHORT * longest => Toward::NearEvent,
                 Some(_) => Toward::Event,
             };
-            let Some(((mut z_end, growth, interior, spacing), end)) =
-                self.substep(t, &z, start, length, &modes, toward)
-            else {
-                length *= 0.25;
-                if length <= 1e-15 * h {
-                    return Err(NotConverged);
-                }
-                continue;
-            };
+            let ((mut z_end, growth, interior, spacing), end) =
+                match self.substep(t, &z, start, length, &modes, toward) {
+                    Ok(taken) => taken,
+                    Err(shorter) => {
+                        length *= shorter;
+                        if length <= 1e-15 * h {
+                            return Err(NotConverged);
+                        }
+                        continue;
+                    }
+                };
             // A substep to the step's end whose end was sampled clear of every event: the
             // end's evaluation would only look for events there.
             if matches!(end, End::Clear) && t + length >= h {
@@ -1165,6 +1177,25 @@ fn with_settled_slide<R>(
     step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
     step.prepare(&mut x, &mut sliders);
     then(&step, x, sliders, travel)
+}
+
+/// A substep of `length` from `z` by the extrapolation, in as many equal pieces (1 to 16)
+/// as its error control takes (as the stepping loop would shorten it): what the tests of
+/// the other substeps compare with.
+#[cfg(test)]
+fn extrapolated_in_pieces(step: &SlidingStep, z: &Vector, modes: &Modes, length: f64) -> Vector {
+    [1, 2, 4, 8, 16]
+        .into_iter()
+        .find_map(|pieces| {
+            let piece = length / pieces as f64;
+            (0..pieces).try_fold(*z, |at, k| {
+                let t = k as f64 * piece;
+                let (rates, events) = step.rates(t, &at, modes);
+                step.substep_by(t, &at, (&rates, &events), piece, modes, false)
+                    .map(|(end, ..)| end)
+            })
+        })
+        .expect("the extrapolation takes a substep within its longest in 16 pieces")
 }
 
 #[cfg(test)]
