@@ -248,6 +248,13 @@ const COUPLING: [[f64; STAGES]; STAGES] = [
 /// at most 0.26 of the estimate in 99 % of the substeps and 0.16 in half of them.
 const ESTIMATE_MARGIN: f64 = 4.0;
 
+/// The most a force may turn on its ellipse over a substep by the pair (its group's
+/// least-moved member's return rate times the substep, [`SlidingStep::turning_rate`]): its
+/// error grows as the eighth power of the turn. Over the slide yardstick's combined slides
+/// the pair takes SecondOrder's turns of 0.9 in one substep; RingBody's turns of 3.4 a
+/// millisecond came back too long at 1.7 and were taken at 1.1.
+pub(super) const MOST_TURN: f64 = 1.0;
+
 /// What a substep by the pair gave.
 pub(super) enum HighOrder {
     /// Accurate: the end, and the factor by which the next substep may grow.
@@ -260,6 +267,11 @@ pub(super) enum HighOrder {
 }
 
 impl SlidingStep<'_> {
+    /// The longest substep by the pair from `z`: within [`MOST_TURN`] of its fastest turn.
+    pub(super) fn longest_high_order_substep(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
+        MOST_TURN / self.turning_rate(t, z, modes)
+    }
+
     /// A substep of `length` from `z` with its `start` rates and event values by the
     /// eighth-order pair (see the module's doc).
     pub(super) fn high_order_substep(

@@ -81,9 +81,12 @@ pub(super) enum Exponential {
     /// Accurate: the end, and the factor by which the next substep may grow.
     Taken(Vector, f64),
     /// Its error estimate is past the tolerance: the piece is further from linear than a
-    /// fourth-order step of this length takes. Also, without the attempt, where a force
-    /// turns on its ellipse within the substep ([`TURNING_BAND`]).
-    TooLong,
+    /// fourth-order step of this length takes; the factor by which a substep that would be
+    /// within it is shorter.
+    TooLong(f64),
+    /// Not tried, or not to be tried shorter: a force turns on its ellipse within the
+    /// substep ([`TURNING_BAND`]).
+    Turning,
     /// A limit is near inside it, or the series would be long: the extrapolation takes it.
     NotSuited,
 }
@@ -244,7 +247,7 @@ impl SlidingStep<'_> {
         // nearly every attempt.
         let turn = self.turning_rate(t, z, modes) * length;
         if turn > TURNING_BAND.0 && turn < TURNING_BAND.1 {
-            return Exponential::TooLong;
+            return Exponential::Turning;
         }
         let jacobian = self.jacobian(t, z, start_rates, modes);
         let largest = largest_of(z);
@@ -278,7 +281,9 @@ impl SlidingStep<'_> {
                 end[..E].copy_from_slice(&fourth);
                 Exponential::Taken(end, growth)
             }
-            (false, _) => Exponential::TooLong,
+            // Shorter, the turn would fall into the band: the other methods take it.
+            (false, factor) if turn * factor < TURNING_BAND.1 => Exponential::Turning,
+            (false, factor) => Exponential::TooLong(factor),
         }
     }
 }
@@ -289,7 +294,7 @@ impl SlidingStep<'_> {
     /// turns on its ellipse.
     ///
     /// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
-    fn turning_rate(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
+    pub(super) fn turning_rate(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
         let x = self.layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
         self.slots()

@@ -9,7 +9,7 @@ use super::dormand_prince::HighOrder;
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
-use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use super::{EVEN_SPLIT, Events, Modes, SIZE, SlidingStep, Vector};
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -156,13 +156,31 @@ impl SlidingStep<'_> {
                     if self.exponential_suited() {
                         match self.exponential_substep(t, z, start, length, modes, true) {
                             Exponential::Taken(end, growth) => {
+                                self.exponential_misses.set(0);
                                 return Ok(((end, growth, None, 0.5 * length), End::Clear));
                             }
-                            Exponential::TooLong => self.exponential_declined.set(true),
+                            // Too long: tried again as long as its estimate says; a
+                            // second miss in a row leaves the rest of the step to the
+                            // other methods.
+                            Exponential::TooLong(factor) => {
+                                let misses = self.exponential_misses.get() + 1;
+                                self.exponential_misses.set(misses);
+                                if misses < 2 {
+                                    return Err(factor);
+                                }
+                                self.exponential_declined.set(true);
+                            }
+                            Exponential::Turning => self.exponential_declined.set(true),
                             Exponential::NotSuited => {}
                         }
                     }
-                    if !self.exponential_suited() && !self.high_order_declined.get() {
+                    if self.high_order_suited() {
+                        // Where the exponential substep has just declined it, a turn too
+                        // long for the pair: shorter, from the same start.
+                        let longest = self.longest_high_order_substep(t, z, modes);
+                        if length > longest / EVEN_SPLIT {
+                            return Err(longest / length);
+                        }
                         match self.high_order_substep(t, z, start, length, modes) {
                             HighOrder::Taken(end, growth) => {
                                 self.high_order_misses.set(0);
@@ -201,6 +219,13 @@ impl SlidingStep<'_> {
     /// none of whose exponential substeps came back too long.
     pub(super) fn exponential_suited(&self) -> bool {
         !self.stiff.get() && !self.exponential_declined.get() && self.input_rates == DrivingVector::zeros()
+    }
+
+    /// Whether a substep without a predicted event is tried by the eighth-order pair: an
+    /// explicit step not suited to the exponential substep, none of whose substeps by
+    /// the pair came back too long twice in a row.
+    pub(super) fn high_order_suited(&self) -> bool {
+        !self.stiff.get() && !self.exponential_suited() && !self.high_order_declined.get()
     }
 
     /// Kutta's third-order step over a short substep (a stick that ends within

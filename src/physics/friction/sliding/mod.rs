@@ -86,6 +86,11 @@ const EXPLICIT_CAP: usize = 256;
 /// start, as a rising load makes every sliding branch do.
 const SHORT: f64 = 0.01;
 
+/// The rest of a step is taken in equal substeps up to `1 / EVEN_SPLIT` times as long as
+/// the error control allows, not in substeps as long as it allows and a short one left at
+/// the end: three substeps of a third of the step, not three of 0.3 and one of 0.1.
+pub(super) const EVEN_SPLIT: f64 = 0.9;
+
 /// A step longer than this many time constants of its fastest sliding group
 /// ([`GroupInput::sliding_rate`]) goes to the stiff method at once: the explicit one, whose
 /// substeps stay below two of them, would need more than eight substeps for stability
@@ -445,6 +450,8 @@ pub struct SlidingStep<'a> {
     /// Whether a substep of this step by the eighth-order pair came back too long
     /// ([`dormand_prince`]): the extrapolation takes the rest of the step.
     high_order_declined: Cell<bool>,
+    /// Exponential substeps that came back too long in a row.
+    exponential_misses: Cell<u8>,
     /// Substeps by the eighth-order pair that came back too long in a row.
     high_order_misses: Cell<u8>,
     /// How fast the groups found sliding at the start move their forces, 1/s
@@ -481,6 +488,7 @@ impl<'a> SlidingStep<'a> {
             stiff: Cell::new(false),
             exponential_declined: Cell::new(false),
             high_order_declined: Cell::new(false),
+            exponential_misses: Cell::new(0),
             high_order_misses: Cell::new(0),
             start_sliding_rate: Cell::new(0.0),
         }
@@ -655,6 +663,7 @@ impl<'a> SlidingStep<'a> {
         self.exponential_declined.set(false);
         self.high_order_declined.set(false);
         self.high_order_misses.set(0);
+        self.exponential_misses.set(0);
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
@@ -711,7 +720,12 @@ impl<'a> SlidingStep<'a> {
             }
             if self.exponential_suited() {
                 length = length.min(0.25 * longest);
+            } else if self.high_order_suited() {
+                length = length.min(self.longest_high_order_substep(t, &z, &modes));
             }
+            // The rest of the step in equal substeps about as long as that, not a short
+            // one left at its end.
+            length = (h - t) / (EVEN_SPLIT * (h - t) / length).ceil();
             let (start_rates, start_events) = self.rates(t, &z, &modes);
             let start = (&start_rates, &start_events);
             // A group the motion brings to its event within the substep: the substep ends
