@@ -12,13 +12,14 @@
 //! falls like the eighth-order error as the substep shortens, measured entry by entry
 //! against the tolerance as the extrapolation's rows are.
 //!
-//! The stages' event values are sampled ([`super::events::InteriorSearch`]): a group near
-//! its limit anywhere in the substep hands it to the extrapolation, whose finer samples
-//! and accurate intermediate values locate events; so events are found where they were.
+//! The stages' event values are sampled: a group near its limit at a stage, or that may
+//! come near it between two (a parabola through three neighbouring stages in time), hands
+//! the substep to the extrapolation, whose finer samples and accurate intermediate values
+//! locate events; so events are found where they were.
 
-use super::events::InteriorSearch;
+use super::events::NEAR_EVENT;
 use super::extrapolation::{ROUNDING, TOLERANCE, larger, largest_of};
-use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, NO_EVENT, SIZE, SlidingStep, Vector};
 
 /// The stages of the eighth-order solution.
 const STAGES: usize = 12;
@@ -248,12 +249,64 @@ const COUPLING: [[f64; STAGES]; STAGES] = [
 /// at most 0.26 of the estimate in 99 % of the substeps and 0.16 in half of them.
 const ESTIMATE_MARGIN: f64 = 4.0;
 
-/// The most a force may turn on its ellipse over a substep by the pair (its group's
-/// least-moved member's return rate times the substep, [`SlidingStep::turning_rate`]): its
-/// error grows as the eighth power of the turn. Over the slide yardstick's combined slides
-/// the pair takes SecondOrder's turns of 0.9 in one substep; RingBody's turns of 3.4 a
-/// millisecond came back too long at 1.7 and were taken at 1.1.
-pub(super) const MOST_TURN: f64 = 1.0;
+/// The stages in the order of their nodes, from the start to the end of the substep.
+const IN_TIME: [usize; STAGES] = [0, 1, 2, 3, 6, 4, 7, 5, 9, 8, 10, 11];
+
+/// The second divided difference through the stages `k - 1`, `k` and `k + 1` in time
+/// (`k` from 1 to 10) as weights of their values, `D = sum w_j v_j`.
+const DIVIDED: [[f64; 3]; STAGES - 1] = {
+    let mut weights = [[0.0; 3]; STAGES - 1];
+    let mut k = 1;
+    while k < STAGES - 1 {
+        let (t0, t1, t2) = (NODES[IN_TIME[k - 1]], NODES[IN_TIME[k]], NODES[IN_TIME[k + 1]]);
+        let before = 1.0 / ((t1 - t0) * (t2 - t0));
+        let after = 1.0 / ((t2 - t1) * (t2 - t0));
+        weights[k] = [before, -(before + after), after];
+        k += 1;
+    }
+    weights
+};
+
+/// A quarter of the square of each gap between neighbouring stages in time.
+const QUARTER_GAP_SQUARED: [f64; STAGES - 1] = {
+    let mut quarter = [0.0; STAGES - 1];
+    let mut k = 0;
+    while k < STAGES - 1 {
+        let gap = NODES[IN_TIME[k + 1]] - NODES[IN_TIME[k]];
+        quarter[k] = 0.25 * gap * gap;
+        k += 1;
+    }
+    quarter
+};
+
+/// Whether a group's event value may come within [`NEAR_EVENT`] of its limit between two
+/// neighbouring stages in time, given its values `samples` at the stages (each below it):
+/// above the larger of the two by at most what a parabola through them and a third
+/// neighbour rises above their chord, `|D| w^2 / 4` for a gap `w` and the parabola's
+/// second divided difference `D < 0`; the larger of the two parabolas of each gap.
+fn may_near_between(samples: &[Events; STAGES]) -> bool {
+    for (e, &start) in samples[0].as_flattened().iter().enumerate() {
+        // A group that does not exist.
+        if start == NO_EVENT {
+            continue;
+        }
+        let values: [f64; STAGES] = std::array::from_fn(|k| samples[IN_TIME[k]].as_flattened()[e]);
+        let mut concavity = [0.0; STAGES];
+        for k in 1..STAGES - 1 {
+            let [w0, w1, w2] = DIVIDED[k];
+            let divided = w0 * values[k - 1] + w1 * values[k] + w2 * values[k + 1];
+            concavity[k] = if divided < 0.0 { -divided } else { 0.0 };
+        }
+        for k in 0..STAGES - 1 {
+            let higher = values[k].max(values[k + 1]);
+            let bend = concavity[k].max(concavity[k + 1]);
+            if higher + bend * QUARTER_GAP_SQUARED[k] > -NEAR_EVENT {
+                return true;
+            }
+        }
+    }
+    false
+}
 
 /// What a substep by the pair gave.
 pub(super) enum HighOrder {
@@ -267,11 +320,6 @@ pub(super) enum HighOrder {
 }
 
 impl SlidingStep<'_> {
-    /// The longest substep by the pair from `z`: within [`MOST_TURN`] of its fastest turn.
-    pub(super) fn longest_high_order_substep(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
-        MOST_TURN / self.turning_rate(t, z, modes)
-    }
-
     /// A substep of `length` from `z` with its `start` rates and event values by the
     /// eighth-order pair (see the module's doc).
     pub(super) fn high_order_substep(
@@ -283,7 +331,8 @@ impl SlidingStep<'_> {
         modes: &Modes,
     ) -> HighOrder {
         let size = self.size();
-        let mut search = InteriorSearch::new(start_events);
+        // The event values at the stages (at the start, the start's).
+        let mut samples = [*start_events; STAGES];
         let mut stages = [[0.0; SIZE]; STAGES];
         stages[0] = *start_rates;
         for s in 1..STAGES {
@@ -297,11 +346,14 @@ impl SlidingStep<'_> {
                 }
             }
             let (rates, events) = self.rates(t + NODES[s] * length, &at, modes);
-            search.sample(s, length / (STAGES - 1) as f64, &events);
-            if search.found() != (None, None) {
+            if events.as_flattened().iter().any(|&e| e > -NEAR_EVENT) {
                 return HighOrder::NotSuited;
             }
+            samples[s] = events;
             stages[s] = rates;
+        }
+        if may_near_between(&samples) {
+            return HighOrder::NotSuited;
         }
         let mut end = *z;
         let (mut fifth, mut third) = ([0.0; SIZE], [0.0; SIZE]);

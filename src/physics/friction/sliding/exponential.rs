@@ -294,7 +294,7 @@ impl SlidingStep<'_> {
     /// turns on its ellipse.
     ///
     /// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
-    pub(super) fn turning_rate(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
+    fn turning_rate(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
         let x = self.layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
         self.slots()

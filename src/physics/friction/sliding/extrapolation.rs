@@ -1,5 +1,6 @@
 //! One substep within a piece, to a relative 1e-12: where no event is near, by exprb43
-//! ([`super::exponential`]); otherwise by extrapolation: Gragg-Bulirsch-Stoer
+//! ([`super::exponential`]) or, where a force turns on its ellipse, by the eighth-order
+//! pair ([`super::dormand_prince`]); otherwise by extrapolation: Gragg-Bulirsch-Stoer
 //! (the modified midpoint rule with 2, 4, ..., 16 steps, polynomial extrapolation in h^2),
 //! or for a stiff step the linearly implicit rows of [`super::implicit`] (extrapolation
 //! in h). The midpoint samples also show where a limit may be touched inside the
@@ -9,7 +10,7 @@ use super::dormand_prince::HighOrder;
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
-use super::{EVEN_SPLIT, Events, Modes, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, SIZE, SlidingStep, Vector};
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -126,13 +127,15 @@ impl SlidingStep<'_> {
 
     /// A substep from `z` with its `start` rates and event values, by what lies ahead
     /// ([`Toward`]): its end, the factor by which the next substep may grow, where a limit
-    /// may have been touched inside it and the spacing of the samples that found it;
-    /// `None` if it did not reach the tolerance.
+    /// may have been touched inside it and the spacing of the samples that found it; or
+    /// the factor by which it is to be shorter if it did not reach the tolerance.
     ///
     /// - No predicted event: by exprb43 ([`super::exponential`]) where it is suited
-    ///   ([`SlidingStep::exponential_suited`]) and no limit is near; otherwise
-    ///   extrapolated. One that comes back too long leaves the rest of the step to the
-    ///   extrapolation.
+    ///   ([`SlidingStep::exponential_suited`]) and no limit is near; where it is not (a
+    ///   force that turns on its ellipse within the substep), by the eighth-order pair
+    ///   ([`super::dormand_prince`]); otherwise extrapolated. A substep by either that
+    ///   comes back too long is tried again shorter; a second miss in a row leaves the
+    ///   rest of the step to the next method.
     /// - A predicted event: extrapolated, so that its samples and accurate intermediate
     ///   values locate it.
     /// - A near one (far shorter than the motion's time scales): by Kutta's third-order
@@ -175,12 +178,6 @@ impl SlidingStep<'_> {
                         }
                     }
                     if self.high_order_suited() {
-                        // Where the exponential substep has just declined it, a turn too
-                        // long for the pair: shorter, from the same start.
-                        let longest = self.longest_high_order_substep(t, z, modes);
-                        if length > longest / EVEN_SPLIT {
-                            return Err(longest / length);
-                        }
                         match self.high_order_substep(t, z, start, length, modes) {
                             HighOrder::Taken(end, growth) => {
                                 self.high_order_misses.set(0);

@@ -5,13 +5,15 @@
 //! Within a piece every group keeps its mode, so the right-hand side is smooth, and over
 //! a millisecond nearly linear. Where no event is near, a substep is an exponential
 //! Rosenbrock step (exprb43): the linear part exact, the small remainder to fourth
-//! order, three evaluations ([`exponential`]). Near an event, or where that step comes
-//! back too long (then for the rest of the step), it is integrated by
+//! order, three evaluations ([`exponential`]). Where a force turns on its ellipse within
+//! the substep (a slide in two directions), or that step comes back too long twice in a
+//! row, the eighth-order Runge-Kutta pair of Dormand and Prince takes it: twelve
+//! evaluations ([`dormand_prince`]). Near an event, or where both come back too long
+//! twice in a row (then for the rest of the step), it is integrated by
 //! Gragg-Bulirsch-Stoer extrapolation (modified midpoint rule, polynomial extrapolation
-//! in h^2), whose samples locate events; both to a relative 1e-12. A substep whose rows
+//! in h^2), whose samples locate events; all to a relative 1e-12. A substep whose rows
 //! stop converging is shortened, not left to a row that agrees with its neighbour by
-//! chance. A step that
-//! explicit method cannot finish
+//! chance. A step that the explicit method cannot finish
 //! within a few hundred substeps (a stiff tire at a light load sliding on its ellipse
 //! turns its force within microseconds; a light load makes the tire's own relaxation
 //! that fast) is taken again from its start by linearly implicit Euler extrapolation,
@@ -36,8 +38,8 @@
 //! (exponential, or linearly implicit for a stiff slide).
 //!
 //! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep,
-//! and the extrapolated one; [`exponential`]: the exponential one;
-//! [`implicit`]: one substep of a stiff piece; [`events`]: where within a substep a group
+//! and the extrapolated one; [`exponential`]: the exponential one; [`dormand_prince`]:
+//! the eighth-order one; [`implicit`]: one substep of a stiff piece; [`events`]: where within a substep a group
 //! changes mode; [`cascade`]: the cascade's step.
 
 // Groups and branches index several arrays together (modes, events, offsets).
@@ -85,11 +87,6 @@ const EXPLICIT_CAP: usize = 256;
 /// ([`SlidingStep::substep`]): a stick that ends within microseconds of the step's
 /// start, as a rising load makes every sliding branch do.
 const SHORT: f64 = 0.01;
-
-/// The rest of a step is taken in equal substeps up to `1 / EVEN_SPLIT` times as long as
-/// the error control allows, not in substeps as long as it allows and a short one left at
-/// the end: three substeps of a third of the step, not three of 0.3 and one of 0.1.
-pub(super) const EVEN_SPLIT: f64 = 0.9;
 
 /// A step longer than this many time constants of its fastest sliding group
 /// ([`GroupInput::sliding_rate`]) goes to the stiff method at once: the explicit one, whose
@@ -720,12 +717,7 @@ impl<'a> SlidingStep<'a> {
             }
             if self.exponential_suited() {
                 length = length.min(0.25 * longest);
-            } else if self.high_order_suited() {
-                length = length.min(self.longest_high_order_substep(t, &z, &modes));
             }
-            // The rest of the step in equal substeps about as long as that, not a short
-            // one left at its end.
-            length = (h - t) / (EVEN_SPLIT * (h - t) / length).ceil();
             let (start_rates, start_events) = self.rates(t, &z, &modes);
             let start = (&start_rates, &start_events);
             // A group the motion brings to its event within the substep: the substep ends
