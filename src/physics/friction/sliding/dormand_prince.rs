@@ -279,6 +279,33 @@ const QUARTER_GAP_SQUARED: [f64; STAGES - 1] = {
     quarter
 };
 
+/// The most a parabola of [`may_near_between`] rises above the larger value of its gap,
+/// per unit of the range of the values (`D = w0 (v0 - v1) + w2 (v2 - v1)`): a group whose
+/// values stay this far below [`NEAR_EVENT`] needs no parabola.
+const MOST_RISE: f64 = {
+    let mut most = 0.0;
+    let mut k = 0;
+    while k < STAGES - 1 {
+        let mut bend = 0.0;
+        let mut j = k;
+        while j <= k + 1 {
+            if j >= 1 && j < STAGES - 1 {
+                let weight = DIVIDED[j][0] + DIVIDED[j][2];
+                if weight > bend {
+                    bend = weight;
+                }
+            }
+            j += 1;
+        }
+        let rise = bend * QUARTER_GAP_SQUARED[k];
+        if rise > most {
+            most = rise;
+        }
+        k += 1;
+    }
+    most
+};
+
 /// Whether a group's event value may come within [`NEAR_EVENT`] of its limit between two
 /// neighbouring stages in time, given its values `samples` at the stages (each below it):
 /// above the larger of the two by at most what a parabola through them and a third
@@ -291,6 +318,13 @@ fn may_near_between(samples: &[Events; STAGES]) -> bool {
             continue;
         }
         let values: [f64; STAGES] = std::array::from_fn(|k| samples[IN_TIME[k]].as_flattened()[e]);
+        let highest = values.iter().fold(f64::NEG_INFINITY, |h, &v| larger(h, v));
+        let lowest = values
+            .iter()
+            .fold(f64::INFINITY, |l, &v| if v < l { v } else { l });
+        if highest + MOST_RISE * (highest - lowest) <= -NEAR_EVENT {
+            continue;
+        }
         let mut concavity = [0.0; STAGES];
         for k in 1..STAGES - 1 {
             let [w0, w1, w2] = DIVIDED[k];
@@ -326,48 +360,71 @@ impl SlidingStep<'_> {
         &self,
         t: f64,
         z: &Vector,
+        start: (&Vector, &Events),
+        length: f64,
+        modes: &Modes,
+    ) -> HighOrder {
+        match self.size() {
+            0..=4 => self.high_order_substep_for::<4>(t, z, start, length, modes),
+            5..=6 => self.high_order_substep_for::<6>(t, z, start, length, modes),
+            7..=8 => self.high_order_substep_for::<8>(t, z, start, length, modes),
+            9..=10 => self.high_order_substep_for::<10>(t, z, start, length, modes),
+            11..=12 => self.high_order_substep_for::<12>(t, z, start, length, modes),
+            _ => self.high_order_substep_for::<SIZE>(t, z, start, length, modes),
+        }
+    }
+
+    /// [`SlidingStep::high_order_substep`] in arrays of `E` entries (at least those in
+    /// use; the rest zero), so that its sums are loops of known length.
+    fn high_order_substep_for<const E: usize>(
+        &self,
+        t: f64,
+        z: &Vector,
         (start_rates, start_events): (&Vector, &Events),
         length: f64,
         modes: &Modes,
     ) -> HighOrder {
-        let size = self.size();
+        let from: [f64; E] = std::array::from_fn(|c| z[c]);
         // The event values at the stages (at the start, the start's).
         let mut samples = [*start_events; STAGES];
-        let mut stages = [[0.0; SIZE]; STAGES];
-        stages[0] = *start_rates;
+        let mut stages = [[0.0; E]; STAGES];
+        stages[0] = std::array::from_fn(|c| start_rates[c]);
+        let mut at = *z;
         for s in 1..STAGES {
-            let mut at = *z;
+            let mut stage = from;
             for (j, rates) in stages[..s].iter().enumerate() {
                 let weight = length * COUPLING[s][j];
                 if weight != 0.0 {
-                    for c in 0..size {
-                        at[c] += weight * rates[c];
+                    for c in 0..E {
+                        stage[c] += weight * rates[c];
                     }
                 }
             }
+            at[..E].copy_from_slice(&stage);
             let (rates, events) = self.rates(t + NODES[s] * length, &at, modes);
             if events.as_flattened().iter().any(|&e| e > -NEAR_EVENT) {
                 return HighOrder::NotSuited;
             }
             samples[s] = events;
-            stages[s] = rates;
+            stages[s].copy_from_slice(&rates[..E]);
         }
         if may_near_between(&samples) {
             return HighOrder::NotSuited;
         }
-        let mut end = *z;
-        let (mut fifth, mut third) = ([0.0; SIZE], [0.0; SIZE]);
+        let (mut end, mut fifth, mut third) = (from, [0.0; E], [0.0; E]);
         for (s, rates) in stages.iter().enumerate() {
-            for c in 0..size {
-                end[c] += length * WEIGHTS[s] * rates[c];
+            let weight = length * WEIGHTS[s];
+            for c in 0..E {
+                end[c] += weight * rates[c];
                 fifth[c] += FIFTH_ORDER_ERROR[s] * rates[c];
                 third[c] += THIRD_ORDER_ERROR[s] * rates[c];
             }
         }
-        if !end[..size].iter().all(|v| v.is_finite()) {
+        if !end.iter().all(|v| v.is_finite()) {
             return HighOrder::NotSuited;
         }
         // Each difference against each entry's share of the tolerance, as the rows'.
+        let size = self.size();
         let floor = ROUNDING * largest_of(&z[..size]);
         let (mut fifth_size, mut third_size) = (0.0, 0.0);
         for c in 0..size {
@@ -384,7 +441,9 @@ impl SlidingStep<'_> {
         // Error ~ length^8 (as the blend falls): aim at a third of the tolerance next time.
         let growth = 0.9 * (3.0 * error / ESTIMATE_MARGIN).max(1e-10).powf(-1.0 / 8.0);
         if error <= ESTIMATE_MARGIN {
-            HighOrder::Taken(end, growth.clamp(0.2, 4.0))
+            let mut whole = *z;
+            whole[..E].copy_from_slice(&end);
+            HighOrder::Taken(whole, growth.clamp(0.2, 4.0))
         } else {
             HighOrder::TooLong(growth.clamp(0.2, 0.9))
         }
