@@ -217,9 +217,11 @@ impl Layout {
     fn model_states_for<const N: usize>(&self, z: &Vector) -> StateVector {
         let mut x = StateVector::zeros();
         let sum = |s: &StateSum| {
+            // One bounds check for the terms, not one a term.
+            let terms = &z[s.first..s.first + MAX_BRANCHES];
             let mut sum = 0.0;
             for i in 0..MAX_BRANCHES {
-                sum += s.weights[i] * z[s.first + i];
+                sum += s.weights[i] * terms[i];
             }
             sum
         };
@@ -553,11 +555,12 @@ impl<'a> SlidingStep<'a> {
         let layout = &self.layout;
         let x = layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
-        let mut rates = [0.0; SIZE];
+        // Made where it is returned, not copied there.
+        let mut out = ([0.0; SIZE], [[NO_EVENT; MAX_BRANCHES]; Group::COUNT]);
+        let (rates, events) = (&mut out.0, &mut out.1);
         for j in 0..layout.free_count {
             rates[j] = x_rates[layout.free[j]];
         }
-        let mut events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
         for slot in self.slots() {
             let law = &slot.law;
             // A missing member's constants are zero: it adds nothing to the sums.
@@ -574,7 +577,7 @@ impl<'a> SlidingStep<'a> {
             }
             events[slot.group][slot.branch] = event;
         }
-        (rates, events)
+        out
     }
 
     /// [`SlidingStep::rates`], each slot's rates then passed to `adjust` with its group
