@@ -19,7 +19,7 @@
 
 use super::events::NEAR_EVENT;
 use super::extrapolation::{ROUNDING, TOLERANCE, larger, largest_of};
-use super::{Events, Modes, NO_EVENT, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, NO_EVENT, SIZE, SlidingStep, Vector, by_entry_count};
 
 /// The stages of the eighth-order solution.
 const STAGES: usize = 12;
@@ -364,14 +364,7 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
     ) -> HighOrder {
-        match self.size() {
-            0..=4 => self.high_order_substep_for::<4>(t, z, start, length, modes),
-            5..=6 => self.high_order_substep_for::<6>(t, z, start, length, modes),
-            7..=8 => self.high_order_substep_for::<8>(t, z, start, length, modes),
-            9..=10 => self.high_order_substep_for::<10>(t, z, start, length, modes),
-            11..=12 => self.high_order_substep_for::<12>(t, z, start, length, modes),
-            _ => self.high_order_substep_for::<SIZE>(t, z, start, length, modes),
-        }
+        by_entry_count!(self.size(), E => self.high_order_substep_for::<E>(t, z, start, length, modes))
     }
 
     /// [`SlidingStep::high_order_substep`] in arrays of `E` entries (at least those in
@@ -454,7 +447,7 @@ impl SlidingStep<'_> {
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{extrapolated_in_pieces, with_settled_slide};
+    use super::super::{ends_where_extrapolated, with_settled_slide};
     use super::HighOrder;
     use crate::physics::friction::FrictionLaw;
     use crate::physics::{ModelKind, Parameter, Parameters};
@@ -495,17 +488,8 @@ mod tests {
                 prop_assume!(taken.is_some());
                 let (length, high_order) = taken.unwrap();
                 prop_assume!(length <= step.longest_substep());
-                let extrapolated = extrapolated_in_pieces(step, &z, &modes, length);
-                let size = step.size();
-                let largest = z[..size].iter().chain(&extrapolated[..size]).fold(travel, |m, v| m.max(v.abs()));
-                for c in 0..size {
-                    prop_assert!(
-                        (high_order[c] - extrapolated[c]).abs() <= 1e-10 * largest,
-                        "{model:?} {law:?} combined {combined}, entry {c} of {size}: {} vs {} (largest {largest})",
-                        high_order[c],
-                        extrapolated[c]
-                    );
-                }
+                let label = format!("{model:?} {law:?} combined {combined}");
+                ends_where_extrapolated(step, (&z, &modes), (length, &high_order), travel, &label)?;
                 Ok(())
             })?;
         }

@@ -33,7 +33,7 @@
 
 use super::events::InteriorSearch;
 use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
-use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, SIZE, SlidingStep, Vector, by_entry_count};
 use crate::physics::stepper::phi::inverse_factorials;
 
 /// The most terms of one phi-series; a substep that needs more is too long for it.
@@ -223,14 +223,7 @@ impl SlidingStep<'_> {
         modes: &Modes,
         look_inside: bool,
     ) -> Exponential {
-        match self.size() {
-            0..=4 => self.exponential_substep_for::<4>(t, z, start, length, modes, look_inside),
-            5..=6 => self.exponential_substep_for::<6>(t, z, start, length, modes, look_inside),
-            7..=8 => self.exponential_substep_for::<8>(t, z, start, length, modes, look_inside),
-            9..=10 => self.exponential_substep_for::<10>(t, z, start, length, modes, look_inside),
-            11..=12 => self.exponential_substep_for::<12>(t, z, start, length, modes, look_inside),
-            _ => self.exponential_substep_for::<SIZE>(t, z, start, length, modes, look_inside),
-        }
+        by_entry_count!(self.size(), E => self.exponential_substep_for::<E>(t, z, start, length, modes, look_inside))
     }
 
     /// [`SlidingStep::exponential_substep`] in arrays of `E` entries.
@@ -372,7 +365,7 @@ pub(super) fn exprb43<const E: usize>(
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{extrapolated_in_pieces, with_settled_slide};
+    use super::super::{ends_where_extrapolated, with_settled_slide};
     use super::Exponential;
     use crate::physics::friction::FrictionLaw;
     use crate::physics::{ModelKind, Parameter, Parameters};
@@ -415,17 +408,8 @@ mod tests {
             prop_assume!(taken.is_some());
             let (length, exponential) = taken.unwrap();
             prop_assume!(length <= step.longest_substep());
-            let extrapolated = extrapolated_in_pieces(step, &z, &modes, length);
-            let size = step.size();
-            let largest = z[..size].iter().chain(&extrapolated[..size]).fold(travel, |m, v| m.max(v.abs()));
-            for c in 0..size {
-                prop_assert!(
-                    (exponential[c] - extrapolated[c]).abs() <= 1e-10 * largest,
-                    "{model:?} combined {combined}, entry {c} of {size}: {} vs {} (largest {largest})",
-                    exponential[c],
-                    extrapolated[c]
-                );
-            }
+            let label = format!("{model:?} combined {combined}");
+            ends_where_extrapolated(step, (&z, &modes), (length, &exponential), travel, &label)?;
             Ok(())
             })?;
         }

@@ -10,7 +10,7 @@ use super::dormand_prince::HighOrder;
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
-use super::{Events, Modes, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, SIZE, SlidingStep, Vector, retry_shorter};
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -166,12 +166,13 @@ impl SlidingStep<'_> {
                             // second miss in a row leaves the rest of the step to the
                             // other methods.
                             Exponential::TooLong(factor) => {
-                                let misses = self.exponential_misses.get() + 1;
-                                self.exponential_misses.set(misses);
-                                if misses < 2 {
-                                    return Err(factor);
+                                if let Some(shorter) = retry_shorter(
+                                    &self.exponential_misses,
+                                    &self.exponential_declined,
+                                    factor,
+                                ) {
+                                    return Err(shorter);
                                 }
-                                self.exponential_declined.set(true);
                             }
                             Exponential::Turning => self.exponential_declined.set(true),
                             Exponential::NotSuited => {}
@@ -187,12 +188,11 @@ impl SlidingStep<'_> {
                             // pair again; a second miss in a row leaves the rest of the
                             // step to the extrapolation.
                             HighOrder::TooLong(factor) => {
-                                let misses = self.high_order_misses.get() + 1;
-                                self.high_order_misses.set(misses);
-                                if misses < 2 {
-                                    return Err(factor);
+                                if let Some(shorter) =
+                                    retry_shorter(&self.high_order_misses, &self.high_order_declined, factor)
+                                {
+                                    return Err(shorter);
                                 }
-                                self.high_order_declined.set(true);
                             }
                             HighOrder::NotSuited => {}
                         }

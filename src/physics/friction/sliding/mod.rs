@@ -61,6 +61,40 @@ use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVe
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 use extrapolation::{End, Toward};
 
+/// `$call` with `$e` the entry count `$size` rounded up to even (4 to 12), or [`SIZE`]:
+/// a substep's arrays of that many entries, so that its loops have a known length.
+macro_rules! by_entry_count {
+    ($size:expr, $e:ident => $call:expr) => {
+        match $size {
+            0..=4 => {
+                const $e: usize = 4;
+                $call
+            }
+            5..=6 => {
+                const $e: usize = 6;
+                $call
+            }
+            7..=8 => {
+                const $e: usize = 8;
+                $call
+            }
+            9..=10 => {
+                const $e: usize = 10;
+                $call
+            }
+            11..=12 => {
+                const $e: usize = 12;
+                $call
+            }
+            _ => {
+                const $e: usize = SIZE;
+                $call
+            }
+        }
+    };
+}
+use by_entry_count;
+
 /// Room for the coupled vector: the model's states, then the branch deflections.
 const SIZE: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;
 type Vector = [f64; SIZE];
@@ -456,6 +490,19 @@ pub struct SlidingStep<'a> {
     /// How fast the groups found sliding at the start move their forces, 1/s
     /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
     start_sliding_rate: Cell<f64>,
+}
+
+/// A substep by a method that came back too long (`misses` in a row before it, kept in
+/// the step): the factor to try it again by, shorter; after the second miss in a row
+/// the method is `declined` for the rest of the step and `None`.
+fn retry_shorter(misses: &Cell<u8>, declined: &Cell<bool>, factor: f64) -> Option<f64> {
+    let missed = misses.get() + 1;
+    misses.set(missed);
+    if missed < 2 {
+        return Some(factor);
+    }
+    declined.set(true);
+    None
 }
 
 /// Why the integration gave up (the tire is left unchanged).
@@ -1188,12 +1235,19 @@ fn with_settled_slide<R>(
     then(&step, x, sliders, travel)
 }
 
-/// A substep of `length` from `z` by the extrapolation, in as many equal pieces (1 to 16)
-/// as its error control takes (as the stepping loop would shorten it): what the tests of
-/// the other substeps compare with.
+/// Whether `end`, a substep of `length` from `z` by another method, ends within 1e-10 of
+/// the largest entry (or of the elastic `travel`) where the extrapolation does, in as many
+/// equal pieces (1 to 16) as its error control takes (as the stepping loop would shorten
+/// it); `label` names the case where it does not.
 #[cfg(test)]
-fn extrapolated_in_pieces(step: &SlidingStep, z: &Vector, modes: &Modes, length: f64) -> Vector {
-    [1, 2, 4, 8, 16]
+fn ends_where_extrapolated(
+    step: &SlidingStep,
+    (z, modes): (&Vector, &Modes),
+    (length, end): (f64, &Vector),
+    travel: f64,
+    label: &str,
+) -> Result<(), proptest::test_runner::TestCaseError> {
+    let extrapolated = [1, 2, 4, 8, 16]
         .into_iter()
         .find_map(|pieces| {
             let piece = length / pieces as f64;
@@ -1204,7 +1258,21 @@ fn extrapolated_in_pieces(step: &SlidingStep, z: &Vector, modes: &Modes, length:
                     .map(|(end, ..)| end)
             })
         })
-        .expect("the extrapolation takes a substep within its longest in 16 pieces")
+        .expect("the extrapolation takes a substep within its longest in 16 pieces");
+    let size = step.size();
+    let largest = z[..size]
+        .iter()
+        .chain(&extrapolated[..size])
+        .fold(travel, |m, v| m.max(v.abs()));
+    for c in 0..size {
+        proptest::prop_assert!(
+            (end[c] - extrapolated[c]).abs() <= 1e-10 * largest,
+            "{label}, entry {c} of {size}: {} vs {} (largest {largest})",
+            end[c],
+            extrapolated[c]
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]
