@@ -24,8 +24,9 @@ pub(super) enum Toward {
     NearEvent,
 }
 
-/// The factor by which a substep that did not reach the tolerance is shortened, where
-/// its method gives no estimate of its own.
+/// The factor by which a substep is shortened where it did not reach the tolerance and
+/// its method gives no estimate of its own, or where an event inside it could not be
+/// located.
 pub(super) const SHORTER: f64 = 0.25;
 
 /// Midpoint substep counts of the extrapolation rows.

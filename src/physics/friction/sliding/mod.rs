@@ -39,8 +39,8 @@
 //!
 //! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep,
 //! and the extrapolated one; [`exponential`]: the exponential one; [`dormand_prince`]:
-//! the eighth-order one; [`implicit`]: one substep of a stiff piece; [`events`]: where within a substep a group
-//! changes mode; [`cascade`]: the cascade's step.
+//! the eighth-order one; [`implicit`]: one substep of a stiff piece; [`events`]: where
+//! within a substep a group changes mode; [`cascade`]: the cascade's step.
 
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
@@ -59,7 +59,7 @@ use super::group::{
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector, by_state_count};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
-use extrapolation::{End, Toward};
+use extrapolation::{End, SHORTER, Toward};
 
 /// `$call` with `$e` the entry count `$size` rounded up to even (4 to 12), or [`SIZE`]:
 /// a substep's arrays of that many entries, so that its loops have a known length.
@@ -476,12 +476,13 @@ pub struct SlidingStep<'a> {
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
     stiff: Cell<bool>,
-    /// Whether an exponential substep of this step came back too long: the piece is
-    /// further from linear than its fourth order takes in a few substeps, and the
-    /// extrapolation (whose order grows as it needs) takes the rest of the step.
+    /// Whether exponential substeps of this step came back too long twice in a row, or a
+    /// force turns on its ellipse within one ([`exponential`]): the piece is further from
+    /// linear than its fourth order takes, and the eighth-order pair or the
+    /// extrapolation takes the rest of the step.
     exponential_declined: Cell<bool>,
-    /// Whether a substep of this step by the eighth-order pair came back too long
-    /// ([`dormand_prince`]): the extrapolation takes the rest of the step.
+    /// Whether substeps of this step by the eighth-order pair came back too long twice in
+    /// a row ([`dormand_prince`]): the extrapolation takes the rest of the step.
     high_order_declined: Cell<bool>,
     /// Exponential substeps that came back too long in a row.
     exponential_misses: Cell<u8>,
@@ -594,37 +595,31 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// [`SlidingStep::rates`] where every group is of springs (the integration's
-    /// evaluation, many times a step): the law of [`GroupInput::evaluate`] written out
-    /// for a group's two member slots, each slot's rates and event value written where
-    /// they go, the same values.
+    /// evaluation, many times a step): each slot's spring law
+    /// ([`crate::physics::friction::group::GroupLaw::spring_rates`]) without the forces
+    /// and the adjustment of [`SlidingStep::rates_adjusted`], the same values.
     #[inline]
     fn spring_rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
         let layout = &self.layout;
         let x = layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
-        // Made where it is returned, not copied there.
-        let mut out = ([0.0; SIZE], [[NO_EVENT; MAX_BRANCHES]; Group::COUNT]);
-        let (rates, events) = (&mut out.0, &mut out.1);
+        let mut rates = [0.0; SIZE];
         for j in 0..layout.free_count {
             rates[j] = x_rates[layout.free[j]];
         }
+        let mut events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
         for slot in self.slots() {
-            let law = &slot.law;
-            // A missing member's constants are zero: it adds nothing to the sums.
-            let mut deflection = [0.0; MAX_MEMBERS];
-            let mut sticking_rate = [0.0; MAX_MEMBERS];
-            for m in law.members() {
-                let (b, k) = (z[slot.entries[m]], slot.states[m]);
-                deflection[m] = b;
-                sticking_rate[m] = x_rates[k] + slot.relaxation[m] * (b - x[k]);
-            }
-            let (rate, event) = law.spring_rates(&deflection, &sticking_rate, modes[slot.group][slot.branch]);
-            for m in law.members() {
+            let input = self.slot_input(slot, &x, &x_rates, z);
+            let sliding = modes[slot.group][slot.branch];
+            let (rate, event) = slot
+                .law
+                .spring_rates(&input.deflection, &input.sticking_rate, sliding);
+            for m in slot.law.members() {
                 rates[slot.entries[m]] = rate[m];
             }
             events[slot.group][slot.branch] = event;
         }
-        out
+        (rates, events)
     }
 
     /// [`SlidingStep::rates`], each slot's rates then passed to `adjust` with its group
@@ -890,7 +885,7 @@ impl<'a> SlidingStep<'a> {
             // An event inside the substep that could not be located (a point inside it
             // not reached to the tolerance): a shorter substep.
             let Ok(first) = first else {
-                length *= 0.25;
+                length *= SHORTER;
                 if length <= 1e-15 * h {
                     return Err(NotConverged);
                 }
