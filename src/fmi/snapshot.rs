@@ -6,7 +6,8 @@
 //! bytes), phase u8, model u8, friction law u8, time, start time, stop-time flag u8, stop
 //! time, the parameters, inputs and input rates (f64 each), state count u32 and states
 //! (f64 each), slider flag u8 and, if 1, the branch offsets from their element's state (f64, by direction and
-//! branch) and sliding flags (u8, by group and branch), `tirFile` (u32 length + UTF-8
+//! branch), sliding flags (u8, by group and branch) and the length the eighth-order
+//! pair's next first substep may have (f64, positive, infinite for any), `tirFile` (u32 length + UTF-8
 //! bytes) and which parameters the importer set (u8 each, by parameter), then an FNV-1a 64
 //! checksum of everything before it.
 
@@ -17,7 +18,7 @@ use super::state_machine::Phase;
 use super::variables::GUID;
 
 const MAGIC: &[u8; 8] = b"TIRELAG\0";
-const FORMAT_VERSION: u32 = 3;
+const FORMAT_VERSION: u32 = 4;
 
 /// A complete copy of an instance's simulation state.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,8 +31,9 @@ pub struct Snapshot {
     pub inputs: [f64; Input::COUNT],
     pub input_rates: [f64; Input::COUNT],
     pub states: Vec<f64>,
-    /// The friction sliders (none for the Unlimited law).
-    pub sliders: Option<SliderState>,
+    /// The friction sliders (none for the Unlimited law), and how long the eighth-order
+    /// pair's next first substep may be (a step's values depend on it to rounding).
+    pub sliders: Option<(SliderState, f64)>,
     /// `tirFile` as the importer set it.
     pub tire_data_file: String,
     /// By parameter: whether the importer set it.
@@ -69,11 +71,12 @@ impl Snapshot {
             out.extend_from_slice(&value.to_le_bytes());
         }
         out.push(u8::from(self.sliders.is_some()));
-        if let Some(sliders) = &self.sliders {
+        if let Some((sliders, first_substep)) = &self.sliders {
             for value in sliders.offsets.iter().flatten() {
                 out.extend_from_slice(&value.to_le_bytes());
             }
             out.extend(sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
+            out.extend_from_slice(&first_substep.to_le_bytes());
         }
         out.extend_from_slice(&(self.tire_data_file.len() as u32).to_le_bytes());
         out.extend_from_slice(self.tire_data_file.as_bytes());
@@ -156,7 +159,13 @@ impl Snapshot {
                         other => return Err(format!("sliding flag {other} is neither 0 nor 1")),
                     };
                 }
-                Some(sliders)
+                let first_substep = r.f64()?;
+                if first_substep.is_nan() || first_substep <= 0.0 {
+                    return Err(format!(
+                        "the first substep's length {first_substep} in the FMU state is not positive"
+                    ));
+                }
+                Some((sliders, first_substep))
             }
             flag => {
                 return Err(format!(
@@ -191,7 +200,7 @@ impl Snapshot {
             .chain(&inputs)
             .chain(&input_rates)
             .chain(&states)
-            .chain(sliders.iter().flat_map(|s| s.offsets.iter().flatten()))
+            .chain(sliders.iter().flat_map(|(s, _)| s.offsets.iter().flatten()))
             .all(|v| v.is_finite());
         if !all_finite {
             return Err("the FMU state holds a value that is not finite".into());
@@ -252,10 +261,13 @@ mod tests {
             inputs: [1.0, -0.2, 0.1, 0.05, 40000.0],
             input_rates: [0.0, 0.5, 0.0, 0.0, 0.0],
             states: vec![1e-3, -2e-3, 0.1, 4e-4, 5e-5, -0.2],
-            sliders: Some(SliderState {
-                offsets: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
-                sliding: [[true, false, false, true], [false; 4]],
-            }),
+            sliders: Some((
+                SliderState {
+                    offsets: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
+                    sliding: [[true, false, false, true], [false; 4]],
+                },
+                3.5e-4,
+            )),
             tire_data_file: "tires/front ü.tir".into(),
             set_by_importer: std::array::from_fn(|k| k % 3 == 0),
         }

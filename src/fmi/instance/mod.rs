@@ -755,9 +755,10 @@ impl Instance {
         }
     }
 
-    /// The friction sliders, for the selected model and law (at rest if the tire is still
-    /// the one of another selection).
-    fn sliders_of_selected_law(&self) -> Option<crate::physics::friction::SliderState> {
+    /// The friction sliders and the eighth-order pair's next first substep
+    /// ([`Tire::high_order_first_substep`]), for the selected model and law (at rest, and
+    /// any length, if the tire is still the one of another selection).
+    fn sliders_of_selected_law(&self) -> Option<(crate::physics::friction::SliderState, f64)> {
         if self.parameters.friction == FrictionLaw::Unlimited {
             return None;
         }
@@ -767,8 +768,8 @@ impl Instance {
             self.tire
                 .sliders()
                 .filter(|_| same)
-                .copied()
-                .unwrap_or(crate::physics::friction::SliderState::AT_REST),
+                .map(|sliders| (*sliders, self.tire.high_order_first_substep()))
+                .unwrap_or((crate::physics::friction::SliderState::AT_REST, f64::INFINITY)),
         )
     }
 
@@ -808,8 +809,9 @@ impl Instance {
         let mut tire = match Tire::new(snapshot.parameters.clone()) {
             Ok(mut tire) => {
                 tire.set_states(&snapshot.states).map_err(Rejection::error)?;
-                if let Some(sliders) = &snapshot.sliders {
+                if let Some((sliders, first_substep)) = &snapshot.sliders {
                     tire.set_sliders(sliders).map_err(Rejection::error)?;
+                    tire.set_high_order_first_substep(*first_substep);
                 }
                 tire
             }

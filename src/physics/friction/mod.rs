@@ -122,6 +122,10 @@ pub struct Friction {
     check: StickingCheck,
     /// The branches as the last sliding step laid them out.
     sliding_slots: sliding::SlidingSlots,
+    /// How long the eighth-order pair's first substep of the last sliding step that took
+    /// one could have been, s (infinite where the last took none): where the next
+    /// sliding step's first substep by the pair starts.
+    high_order_first_substep: f64,
 }
 
 impl Friction {
@@ -238,6 +242,7 @@ impl Friction {
             together: true,
             check: StickingCheck::default(),
             sliding_slots: sliding::SlidingSlots::default(),
+            high_order_first_substep: f64::INFINITY,
         })
     }
 
@@ -271,6 +276,17 @@ impl Friction {
     /// Each branch's offset and whether its groups slide.
     pub fn state(&self) -> &SliderState {
         &self.state
+    }
+
+    /// How long the eighth-order pair's next first substep may be, s (infinite: as long
+    /// as the rest of its step). Part of the tire's state, as the FMU state holds it:
+    /// a step's substeps depend on it, and so its values to within the tolerance.
+    pub fn high_order_first_substep(&self) -> f64 {
+        self.high_order_first_substep
+    }
+
+    pub fn set_high_order_first_substep(&mut self, length: f64) {
+        self.high_order_first_substep = length;
     }
 
     pub fn set_state(&mut self, state: SliderState) {

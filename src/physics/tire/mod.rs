@@ -157,6 +157,22 @@ impl Tire {
         self.friction.as_ref().map(|f| f.state())
     }
 
+    /// How long the eighth-order pair's first substep of the next sliding step may be, s
+    /// (infinite: any; and for the Unlimited law): the first substep the last one took by
+    /// it, as long as its error control expected to take it.
+    pub fn high_order_first_substep(&self) -> f64 {
+        self.friction
+            .as_ref()
+            .map_or(f64::INFINITY, Friction::high_order_first_substep)
+    }
+
+    /// Replaces [`Tire::high_order_first_substep`] (ignored for the Unlimited law).
+    pub fn set_high_order_first_substep(&mut self, length: f64) {
+        if let Some(friction) = self.friction.as_mut() {
+            friction.set_high_order_first_substep(length);
+        }
+    }
+
     /// Replaces the sliders' state (after [`Tire::set_states`], which puts every branch at
     /// its element's state). The offsets must be finite.
     pub fn set_sliders(&mut self, sliders: &SliderState) -> Result<(), String> {
@@ -621,6 +637,7 @@ impl Tire {
                             .then(|| SeparableStep::new(state_space, friction, &limits, u0))
                             .flatten()
                             .and_then(|step| step.step(&self.states, friction.state(), h));
+                        let mut high_order_first_substep = friction.high_order_first_substep();
                         let (end, sliders) = match separable {
                             Some(end) => end,
                             None => {
@@ -643,6 +660,7 @@ impl Tire {
                                 if !ramping && friction_damped {
                                     shaped = Some(shaped_outputs(&sliding_step, &end, &sliders, u0));
                                 }
+                                high_order_first_substep = sliding_step.high_order_first_substep();
                                 (end, sliders)
                             }
                         };
@@ -651,6 +669,7 @@ impl Tire {
                         }
                         next_states = end;
                         friction.set_state(sliders);
+                        friction.set_high_order_first_substep(high_order_first_substep);
                         sliding = true;
                     }
                 }

@@ -154,18 +154,19 @@ impl SlidingStep<'_> {
         t: f64,
         z: &Vector,
         start: (&Vector, &Events),
-        length: f64,
+        length: &mut f64,
         modes: &Modes,
         toward: Toward,
     ) -> Result<(Taken, End), f64> {
+        let asked = *length;
         if !self.stiff.get() {
             match toward {
                 Toward::NoEvent => {
                     if self.exponential_suited() {
-                        match self.exponential_substep(t, z, start, length, modes, true) {
+                        match self.exponential_substep(t, z, start, asked, modes, true) {
                             Exponential::Taken(end, growth) => {
                                 self.exponential_misses.set(0);
-                                return Ok(((end, growth, None, 0.5 * length), End::Clear));
+                                return Ok(((end, growth, None, 0.5 * asked), End::Clear));
                             }
                             // Too long: tried again as long as its estimate says; a
                             // second miss in a row leaves the rest of the step to the
@@ -184,10 +185,21 @@ impl SlidingStep<'_> {
                         }
                     }
                     if self.high_order_suited() {
-                        match self.high_order_substep(t, z, start, length, modes) {
-                            HighOrder::Taken(end, growth) => {
+                        // The step's first substep by the pair is tried as long as the
+                        // last step's first was taken (at most).
+                        let tried = if self.high_order_taken.get() {
+                            asked
+                        } else {
+                            asked.min(self.high_order_first_substep.get())
+                        };
+                        match self.high_order_substep(t, z, start, tried, modes) {
+                            HighOrder::Taken(end, growth, longest) => {
                                 self.high_order_misses.set(0);
-                                return Ok(((end, growth, None, 0.5 * length), End::Clear));
+                                if !self.high_order_taken.replace(true) {
+                                    self.high_order_first_substep.set(longest);
+                                }
+                                *length = tried;
+                                return Ok(((end, growth, None, 0.5 * tried), End::Clear));
                             }
                             // Too long: tried again as long as its estimate says, by the
                             // pair again; a second miss in a row leaves the rest of the
@@ -196,7 +208,7 @@ impl SlidingStep<'_> {
                                 if let Some(shorter) =
                                     retry_shorter(&self.high_order_misses, &self.high_order_declined, factor)
                                 {
-                                    return Err(shorter);
+                                    return Err(shorter * tried / asked);
                                 }
                             }
                             HighOrder::NotSuited => {}
@@ -204,14 +216,14 @@ impl SlidingStep<'_> {
                     }
                 }
                 Toward::NearEvent => {
-                    if let Some((taken, (rates, events))) = self.short_substep(t, z, start, length, modes) {
+                    if let Some((taken, (rates, events))) = self.short_substep(t, z, start, asked, modes) {
                         return Ok((taken, End::Staged(rates, events)));
                     }
                 }
                 _ => {}
             }
         }
-        self.substep_by(t, z, start, length, modes, true)
+        self.substep_by(t, z, start, asked, modes, true)
             .map(|taken| (taken, End::Unknown))
             .ok_or(SHORTER)
     }

@@ -488,6 +488,12 @@ pub struct SlidingStep<'a> {
     exponential_misses: Cell<u8>,
     /// Substeps by the eighth-order pair that came back too long in a row.
     high_order_misses: Cell<u8>,
+    /// The length of the first substep the pair takes in this step, at most, s: carried
+    /// from the last step that took one ([`SlidingStep::high_order_first_substep`]), then
+    /// this step's own.
+    high_order_first_substep: Cell<f64>,
+    /// Whether a substep of this step was taken by the pair.
+    high_order_taken: Cell<bool>,
     /// How fast the groups found sliding at the start move their forces, 1/s
     /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
     start_sliding_rate: Cell<f64>,
@@ -521,6 +527,7 @@ impl<'a> SlidingStep<'a> {
         start_scale: f64,
     ) -> Self {
         friction.lay_out_sliding(system, &limits);
+        let high_order_first_substep = friction.high_order_first_substep();
         let friction: &'a Friction = friction;
         let laid_out = &friction.sliding_slots;
         Self {
@@ -537,6 +544,8 @@ impl<'a> SlidingStep<'a> {
             high_order_declined: Cell::new(false),
             exponential_misses: Cell::new(0),
             high_order_misses: Cell::new(0),
+            high_order_first_substep: Cell::new(high_order_first_substep),
+            high_order_taken: Cell::new(false),
             start_sliding_rate: Cell::new(0.0),
         }
     }
@@ -784,7 +793,7 @@ impl<'a> SlidingStep<'a> {
                 Some(_) => Toward::Event,
             };
             let ((mut z_end, growth, interior, spacing), end) =
-                match self.substep(t, &z, start, length, &modes, toward) {
+                match self.substep(t, &z, start, &mut length, &modes, toward) {
                     Ok(taken) => taken,
                     Err(shorter) => {
                         length *= shorter;
