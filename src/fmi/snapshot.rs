@@ -295,6 +295,19 @@ mod tests {
     }
 
     #[test]
+    fn refuses_a_first_substep_that_is_not_positive() {
+        for bad in [0.0, -1e-3, f64::NAN, f64::NEG_INFINITY] {
+            let mut s = sample();
+            s.sliders.as_mut().expect("sliders").1 = bad;
+            let refused = Snapshot::from_bytes(&s.to_bytes()).unwrap_err();
+            assert!(refused.contains("first substep"), "{bad}: {refused}");
+        }
+        let mut any = sample();
+        any.sliders.as_mut().expect("sliders").1 = f64::INFINITY;
+        assert_eq!(Snapshot::from_bytes(&any.to_bytes()).unwrap(), any);
+    }
+
+    #[test]
     fn names_the_problem() {
         assert!(
             Snapshot::from_bytes(b"hello world, not a state")
