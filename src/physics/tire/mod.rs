@@ -6,7 +6,7 @@ pub mod hybrid;
 use std::fmt;
 
 use super::friction::separable::SeparableStep;
-use super::friction::sliding::SlidingStep;
+use super::friction::sliding::{Preparation, SlidingStep};
 use super::friction::{Friction, Limits, LinearStep, SliderState};
 use super::load::{InverseLengthFactors, LoadLaw};
 use super::models::TireLagModel;
@@ -114,6 +114,10 @@ pub struct Tire {
     hybrid: hybrid::Evaluation,
     /// The friction sliders (`None` for the Unlimited law).
     friction: Option<Friction>,
+    /// What preparing a sliding step from the current states would decide, found with
+    /// the outputs of the step that ended here, and the step it was found for: valid
+    /// until the states or inputs change, as the outputs are.
+    prepared: Option<(StepKey, Preparation)>,
 }
 
 impl Tire {
@@ -149,6 +153,7 @@ impl Tire {
             outputs: None,
             hybrid,
             friction,
+            prepared: None,
         })
     }
 
@@ -190,6 +195,7 @@ impl Tire {
     /// The states or inputs changed: what was derived from them is computed anew.
     fn changed(&mut self) {
         self.outputs = None;
+        self.prepared = None;
         self.hybrid.valid = false;
     }
 
@@ -381,7 +387,7 @@ impl Tire {
             let mode = ContactMode::from_load(inputs[Input::Fz as usize]);
             return self.contact_system(mode).at(point).outputs(x, &u);
         };
-        shaped_outputs(&step, x, sliders, &u)
+        shaped_outputs(&step, x, sliders, &u).0
     }
 
     /// How a friction limit shapes the outputs at the current states and inputs.
@@ -609,6 +615,7 @@ impl Tire {
         // step with sliding works on copies until it has succeeded.
         let mut sliding = false;
         let mut shaped = None;
+        let (prepared, mut preparation) = (self.prepared.take(), None);
         let friction_damped = self.friction.as_ref().is_some_and(Friction::damped);
         if let Some(friction) = self.friction.as_mut() {
             match mode {
@@ -650,7 +657,14 @@ impl Tire {
                                     (*u0, *du),
                                     self.states.amax(),
                                 );
-                                sliding_step.prepare(&mut end, &mut sliders);
+                                // A step from where the last one ended, with nothing
+                                // changed since: its outputs decided the modes here.
+                                match prepared.filter(|(key, _)| key.same_as(&made_for)) {
+                                    Some((_, prepared)) => sliding_step.prepare_as(&mut sliders, &prepared),
+                                    None => {
+                                        sliding_step.prepare(&mut end, &mut sliders);
+                                    }
+                                }
                                 sliding_step
                                     .integrate(&mut end, &mut sliders, h)
                                     .map_err(|_| StepError::NotConverged)?;
@@ -658,7 +672,10 @@ impl Tire {
                                 // at the end from this step's system and limits, which
                                 // are those they are otherwise made from on demand.
                                 if !ramping && friction_damped {
-                                    shaped = Some(shaped_outputs(&sliding_step, &end, &sliders, u0));
+                                    let outputs;
+                                    (outputs, preparation) =
+                                        shaped_outputs(&sliding_step, &end, &sliders, u0);
+                                    shaped = Some(outputs);
                                 }
                                 high_order_first_substep = sliding_step.high_order_first_substep();
                                 (end, sliders)
@@ -686,6 +703,7 @@ impl Tire {
         } else {
             (!ramping).then(|| state_space.outputs(&next_states, u0))
         };
+        self.prepared = preparation.map(|preparation| (made_for, preparation));
         self.hybrid.valid = false;
         if map_made {
             self.step_made_for = made_for;
@@ -720,14 +738,15 @@ impl Tire {
 /// The outputs at states `x` and branches `sliders` with `step`'s limits: a spring force
 /// beyond its limit is on it (it slides at once), and a damped force is the closest point
 /// of its ellipse.
+/// Also what preparing a step from them would decide, where it moves nothing.
 fn shaped_outputs(
     step: &SlidingStep,
     x: &StateVector,
     sliders: &SliderState,
     u: &DrivingVector,
-) -> OutputVector {
+) -> (OutputVector, Option<Preparation>) {
     let (mut x, mut sliders) = (*x, *sliders);
-    let change = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
+    let (change, preparation) = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
     let mut y = step.system.outputs(&x, u);
     for (d, element) in step.friction.elements.iter().enumerate() {
         if let Some(element) = element
@@ -738,5 +757,5 @@ fn shaped_outputs(
             }
         }
     }
-    y
+    (y, preparation)
 }

@@ -1007,6 +1007,15 @@ struct Decided {
     moved: bool,
 }
 
+/// What preparing a step decided where it moved no deflection: each group's mode, and
+/// how fast the sliding ones move their forces. The same states, inputs, operating point
+/// and limits decide the same again ([`SlidingStep::prepare_as`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Preparation {
+    sliding: Modes,
+    sliding_rate: f64,
+}
+
 impl<'a> SlidingStep<'a> {
     /// Brings the branches to the step's limits and inputs at its start: a spring force
     /// outside its limit is put on it (the load fell), and each group's mode is decided
@@ -1015,20 +1024,33 @@ impl<'a> SlidingStep<'a> {
         self.decide_modes(x, sliders, false, None).inside
     }
 
+    /// [`SlidingStep::prepare`] as `preparation` found it at the same states, inputs,
+    /// operating point and limits, where it moved nothing: the same modes, not decided
+    /// again.
+    pub fn prepare_as(&self, sliders: &mut SliderState, preparation: &Preparation) {
+        sliders.sliding = preparation.sliding;
+        self.start_sliding_rate.set(preparation.sliding_rate);
+    }
+
     /// [`SlidingStep::prepare`], and then [`SlidingStep::damper_force_changes`] at the
-    /// prepared states: from the same evaluation where preparing moved no deflection.
+    /// prepared states: from the same evaluation where preparing moved no deflection,
+    /// which also gives the [`Preparation`] a step from these states would make.
     pub fn prepare_with_damper_force_changes(
         &self,
         x: &mut StateVector,
         sliders: &mut SliderState,
-    ) -> [f64; Direction::COUNT] {
+    ) -> ([f64; Direction::COUNT], Option<Preparation>) {
         let mut change = [0.0; Direction::COUNT];
         // Where a deflection was moved (a frictionless direction's too, whose damper's
         // share goes), the changes are made at the prepared states.
         if self.decide_modes(x, sliders, false, Some(&mut change)).moved {
-            self.damper_force_changes(x, sliders)
+            (self.damper_force_changes(x, sliders), None)
         } else {
-            change
+            let preparation = Preparation {
+                sliding: sliders.sliding,
+                sliding_rate: self.start_sliding_rate.get(),
+            };
+            (change, Some(preparation))
         }
     }
 
@@ -1322,12 +1344,21 @@ mod tests {
                 x[k] = states[k] * travel;
             }
             let (mut x_fused, mut sliders_fused) = (x, SliderState::AT_REST);
-            let fused = step.prepare_with_damper_force_changes(&mut x_fused, &mut sliders_fused);
+            let (fused, preparation) = step.prepare_with_damper_force_changes(&mut x_fused, &mut sliders_fused);
             let mut sliders = SliderState::AT_REST;
             step.prepare(&mut x, &mut sliders);
             prop_assert_eq!(x_fused, x);
             prop_assert_eq!(sliders_fused, sliders);
             prop_assert_eq!(fused, step.damper_force_changes(&x, &sliders));
+            // Where nothing moved, the preparation found decides as preparing again does.
+            if let Some(preparation) = preparation {
+                let sliding_rate = step.start_sliding_rate.get();
+                step.start_sliding_rate.set(f64::NAN);
+                let mut adopted = SliderState::AT_REST;
+                step.prepare_as(&mut adopted, &preparation);
+                prop_assert_eq!(adopted, sliders);
+                prop_assert_eq!(step.start_sliding_rate.get().to_bits(), sliding_rate.to_bits());
+            }
         }
     }
 }
