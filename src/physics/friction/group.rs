@@ -439,6 +439,20 @@ impl<'a> GroupInput<'a> {
         }
     }
 
+    /// The event value [`GroupInput::evaluate`] gives, the same bits: a damped group's
+    /// without its projection onto the ellipse (it follows from the trial force alone).
+    pub fn event(&self, sliding: bool) -> f64 {
+        if !self.damped() {
+            return self.evaluate_springs(sliding).event;
+        }
+        let utilisation = self.utilisation(&self.sticking_force());
+        if sliding {
+            1.0 - utilisation
+        } else {
+            utilisation - 1.0
+        }
+    }
+
     /// [`RateSlopes`] of the rates [`GroupInput::evaluate`] gives in the same mode, in
     /// closed form: for the stiff integration's Jacobian, which takes them through the
     /// chain rule instead of evaluating the whole system once per entry. `rate` is what
@@ -810,7 +824,8 @@ mod tests {
         }
     }
 
-    /// Groups evaluated together give what each gives by itself, bit for bit.
+    /// Groups evaluated together give what each gives by itself, bit for bit, and so
+    /// does a group's event value by itself.
     #[test]
     fn groups_evaluated_together_give_their_own_values() {
         let mut inputs = Vec::new();
@@ -829,6 +844,8 @@ mod tests {
             evaluate_together(&inputs, &modes, &mut outputs);
             for (input, together) in inputs.iter().zip(outputs) {
                 assert_eq!(together, input.evaluate(sliding));
+                // The event value alone, the same bits (with no projection).
+                assert_eq!(input.event(sliding).to_bits(), together.event.to_bits());
             }
         }
     }

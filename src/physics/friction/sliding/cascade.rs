@@ -226,19 +226,21 @@ impl SlidingStep<'_> {
         // whole step first, as there.
         let longest = if stiff { h } else { 0.25 * self.longest_substep() };
         let (mut t, mut length, mut taken) = (0.0, h.min(longest), 0);
-        // Each pass evaluates where the last substep ended (the last pass only to check
-        // the events there), so the loop has a pass more than the substeps.
-        for _ in 0..=MAX_SUBSTEPS {
-            let (rates, events, inputs) = groups.evaluate(&w);
-            if !events
+        let all_clear = |events: &Events| {
+            events
                 .iter()
                 .flatten()
                 .all(|&event| event == NO_EVENT || clear(event))
-            {
-                return None;
-            }
+        };
+        // Each pass evaluates where the last substep ended (the last pass only the event
+        // values there), so the loop has a pass more than the substeps.
+        for _ in 0..=MAX_SUBSTEPS {
             if t >= h {
-                return Some(w);
+                return all_clear(&groups.events(&w)).then_some(w);
+            }
+            let (rates, events, inputs) = groups.evaluate(&w);
+            if !all_clear(&events) {
+                return None;
             }
             // Substeps that cannot finish the step within the rest at the length the error
             // control allows: the whole-system path takes it, known early.
@@ -407,9 +409,8 @@ impl<'s> DrivenGroups<'s> {
         self.slots[..self.count].iter().copied()
     }
 
-    /// Every driven group's rates and event value at `w`, evaluated side by side (their
-    /// projections' Newton steps overlap), with their inputs there.
-    fn evaluate(&self, w: &Driven) -> (Driven, Events, [GroupInput<'s>; MAX_BRANCHES]) {
+    /// Every driven group's inputs at `w`, and its mode.
+    fn inputs(&self, w: &Driven) -> ([GroupInput<'s>; MAX_BRANCHES], [bool; MAX_BRANCHES]) {
         let sum = self.sum;
         let driver = sum.start + sum.by_mode[0] * w[Q[0]] + sum.by_mode[1] * w[Q[1]];
         let mut inputs = [GroupInput::default(); MAX_BRANCHES];
@@ -424,6 +425,25 @@ impl<'s> DrivenGroups<'s> {
             }
             sliding[n] = self.modes[slot.group][slot.branch];
         }
+        (inputs, sliding)
+    }
+
+    /// Every driven group's event value at `w`, as [`DrivenGroups::evaluate`] gives it
+    /// (with no projection onto the ellipses).
+    fn events(&self, w: &Driven) -> Events {
+        let (inputs, sliding) = self.inputs(w);
+        let mut events: Events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
+        for (n, slot) in self.slots().enumerate() {
+            events[slot.group][slot.branch] = inputs[n].event(sliding[n]);
+        }
+        events
+    }
+
+    /// Every driven group's rates and event value at `w`, evaluated side by side (their
+    /// projections' Newton steps overlap), with their inputs there.
+    fn evaluate(&self, w: &Driven) -> (Driven, Events, [GroupInput<'s>; MAX_BRANCHES]) {
+        let sum = self.sum;
+        let (inputs, sliding) = self.inputs(w);
         let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
         let count = self.count;
         evaluate_together(&inputs[..count], &sliding[..count], &mut outputs[..count]);
