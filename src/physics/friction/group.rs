@@ -525,6 +525,15 @@ impl<'a> GroupInput<'a> {
     /// (F_j / (L_j^2 q_j)) / S` with `S = sum F_k^2 a_k / (L_k^2 q_k)`, so `d F_k / d T_j =
     /// (delta_kj - F_k a_k d lambda / d T_j) / q_k`; `T = K b + Dw g`.
     fn damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
+        if self.count == MAX_MEMBERS {
+            self.planar_damped_sliding_slopes(rate, slopes);
+        } else {
+            self.any_damped_sliding_slopes(rate, slopes);
+        }
+    }
+
+    /// [`GroupInput::damped_sliding_slopes`] over the members there are.
+    fn any_damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
         let trial = self.sticking_force();
         // The force `K b + Dw db/dt`, and the multiplier from the member farthest along
         // its limit: `q_k = T_k / F_k`.
@@ -554,6 +563,40 @@ impl<'a> GroupInput<'a> {
                 slopes.by_deflection[k][j] =
                     per_damping * self.stiffness[j] - delta * self.stiffness[k] * self.inverse_damping[k];
                 slopes.by_sticking_rate[k][j] = per_damping * self.damping[j];
+            }
+        }
+    }
+
+    /// [`GroupInput::damped_sliding_slopes`] of a group with both members, written out
+    /// for them (the same operations in the same order, so the same bits).
+    fn planar_damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
+        let (stiffness, damping, weight) = (&self.stiffness, &self.damping, &self.weight);
+        let (inverse_limit, inverse_damping) = (&self.inverse_limit, &self.inverse_damping);
+        let trial = self.sticking_force();
+        let force = [0, 1].map(|k| stiffness[k] * self.deflection[k] + damping[k] * rate[k]);
+        let along = [0, 1].map(|k| (force[k] * inverse_limit[k]).abs());
+        // The member farthest along its limit (the first where they tie; none at zero).
+        let first_farthest = if along[0] > 0.0 { along[0] } else { 0.0 };
+        let lambda_of = |k: usize| (trial[k] / force[k] - 1.0) / weight[k];
+        let lambda = if along[1] > first_farthest {
+            lambda_of(1)
+        } else if along[0] > 0.0 {
+            lambda_of(0)
+        } else {
+            0.0
+        };
+        let inverse_q = [0, 1].map(|k| (1.0 + lambda * weight[k]).recip());
+        let along = [0, 1].map(|k| force[k] * inverse_limit[k] * inverse_limit[k] * inverse_q[k]);
+        let sum = 0.0 + along[0] * force[0] * weight[0] + along[1] * force[1] * weight[1];
+        for j in 0..MAX_MEMBERS {
+            let multiplier_slope = if sum != 0.0 { along[j] / sum } else { 0.0 };
+            for k in 0..MAX_MEMBERS {
+                let delta = if k == j { 1.0 } else { 0.0 };
+                let force_slope = (delta - force[k] * weight[k] * multiplier_slope) * inverse_q[k];
+                let per_damping = force_slope * inverse_damping[k];
+                slopes.by_deflection[k][j] =
+                    per_damping * stiffness[j] - delta * stiffness[k] * inverse_damping[k];
+                slopes.by_sticking_rate[k][j] = per_damping * damping[j];
             }
         }
     }
@@ -820,6 +863,40 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    /// A planar group's slopes written out for both members are those of the members'
+    /// loop, bit for bit.
+    #[test]
+    fn planar_slopes_are_the_general_ones() {
+        for damping in [10.0, 0.3] {
+            for (b, g) in [
+                ([0.02, 0.03], [5.0, -3.0]),
+                ([0.03, 0.0001], [0.01, 0.001]),
+                ([0.0, 0.06], [0.0, 10.0]),
+                ([-0.04, 0.0], [1.0, 0.0]),
+                ([0.0, 0.0], [0.0, 0.0]),
+            ] {
+                let input = planar(b, g, damping);
+                let rate = input.evaluate(true).rate;
+                let (mut planar_slopes, mut general) = (RateSlopes::default(), RateSlopes::default());
+                input.planar_damped_sliding_slopes(&rate, &mut planar_slopes);
+                input.any_damped_sliding_slopes(&rate, &mut general);
+                let bits = |s: &RateSlopes| {
+                    (s.by_deflection
+                        .as_flattened()
+                        .iter()
+                        .chain(s.by_sticking_rate.as_flattened()))
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>()
+                };
+                assert_eq!(
+                    bits(&planar_slopes),
+                    bits(&general),
+                    "{b:?} {g:?} damping {damping}"
+                );
             }
         }
     }
