@@ -115,7 +115,7 @@ impl SlidingStep<'_> {
             let slot = &slots[j];
             let sliding = modes[slot.group][slot.branch];
             let entry = slot.entries[0];
-            let start = self.driver_output(slot, z[entry], sliding);
+            let start = self.driver_input(slot, z[entry]).evaluate(sliding);
             let mu = if sliding {
                 -slot.law.stiffness[0] / slot.law.damping[0]
             } else {
@@ -134,12 +134,15 @@ impl SlidingStep<'_> {
             };
             sum.by_mode[mode] += self.layout.weights[slot.branch] * start.rate[0];
             end[entry] = z[entry] + q * start.rate[0];
-            let finish = self.driver_output(slot, end[entry], sliding);
+            // At the end its event value, and the trial force, whose side of zero a
+            // sliding force has (it is the trial's scaled onto the limit).
+            let finish = self.driver_input(slot, end[entry]);
+            let finish_event = finish.event(sliding);
             // The deflection moves monotonically, so the force sticking needs (affine in
             // it) is largest in size at an end: sticking, the ends' event values bound it.
             // Sliding, its limit's side must stay the same too, or it passed inside.
-            let same_side = !sliding || start.force[0] * finish.force[0] > 0.0;
-            if !(clear(start.event) && clear(finish.event) && same_side) {
+            let same_side = !sliding || start.force[0] * finish.sticking_force()[0] > 0.0;
+            if !(clear(start.event) && clear(finish_event) && same_side) {
                 return false;
             }
         }
@@ -189,14 +192,14 @@ impl SlidingStep<'_> {
             .then_some(cascade)
     }
 
-    /// A driver's group output at deflection `b` in its mode: its sticking rate is its
-    /// element's equation with `b` in place of the state, `A_kk b + c`.
-    fn driver_output(&self, slot: &Slot, b: f64, sliding: bool) -> GroupOutput {
+    /// A driver's group input at deflection `b`: its sticking rate is its element's
+    /// equation with `b` in place of the state, `A_kk b + c`.
+    fn driver_input<'s>(&self, slot: &'s Slot, b: f64) -> GroupInput<'s> {
         let mut input = GroupInput::at_rest(&slot.law);
         input.deflection[0] = b;
         input.sticking_rate[0] =
             slot.relaxation[0] * b + self.system.input_rate(slot.states[0], &self.inputs);
-        input.evaluate(sliding)
+        input
     }
 
     /// The driven groups over the step, side by side, in substeps of one length: by
