@@ -412,7 +412,9 @@ impl<'s> DrivenGroups<'s> {
         self.slots[..self.count].iter().copied()
     }
 
-    /// Every driven group's inputs at `w`, and its mode.
+    /// Every driven group's inputs at `w`, and its mode. (Inlined: made where they are
+    /// used, not copied there.)
+    #[inline(always)]
     fn inputs(&self, w: &Driven) -> ([GroupInput<'s>; MAX_BRANCHES], [bool; MAX_BRANCHES]) {
         let sum = self.sum;
         let driver = sum.start + sum.by_mode[0] * w[Q[0]] + sum.by_mode[1] * w[Q[1]];
