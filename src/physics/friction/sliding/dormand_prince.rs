@@ -258,6 +258,11 @@ const ESTIMATE_MARGIN: f64 = 4.0;
 /// came back too long in 19 steps, where 800 tried the whole step in vain before.
 const FIRST_AIM: f64 = 3.0;
 
+/// `x^(1/8)` by three square roots (a power would cost several times more).
+fn eighth_root(x: f64) -> f64 {
+    x.sqrt().sqrt().sqrt()
+}
+
 /// The stages in the order of their nodes, from the start to the end of the substep.
 const IN_TIME: [usize; STAGES] = [0, 1, 2, 3, 6, 4, 7, 5, 9, 8, 10, 11];
 
@@ -452,20 +457,15 @@ impl SlidingStep<'_> {
         } else {
             0.0
         };
-        // Error ~ length^8 (as the blend falls): aim at a third of the tolerance next time.
-        static AIM: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
-        let aim: f64 = *AIM.get_or_init(|| {
-            std::env::var("AIM")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0.57)
-        });
-        let growth = (error / aim).max(1e-10).powf(-1.0 / 8.0);
+        // Error ~ length^8 (as the blend falls): aim at a third of the tolerance next time,
+        // with a margin.
+        let root = eighth_root(error.max(1e-10));
+        let growth = 0.9 * eighth_root(ESTIMATE_MARGIN / 3.0) / root;
         if error <= ESTIMATE_MARGIN {
             let mut whole = *z;
             whole[..E].copy_from_slice(&end);
             // The length at which the estimate would have been FIRST_AIM.
-            let longest = length * (error / FIRST_AIM).max(1e-10).powf(-1.0 / 8.0);
+            let longest = length * eighth_root(FIRST_AIM) / root;
             HighOrder::Taken(
                 whole,
                 growth.clamp(0.2, 4.0),

@@ -279,7 +279,7 @@ impl SlidingStep<'_> {
         }
         // Error ~ length^4 (the value taken is an order better than the estimate): aim at
         // a third of the tolerance next time.
-        let growth = 0.9 * (3.0 * error).max(1e-10).powf(-0.25);
+        let growth = 0.9 / (3.0 * error).max(1e-10).sqrt().sqrt();
         let (interior, closest) = search.found();
         Some((
             (third, growth.clamp(0.2, 4.0), interior.or(closest), 0.5 * length),
