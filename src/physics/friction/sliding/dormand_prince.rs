@@ -19,7 +19,7 @@
 
 use super::events::NEAR_EVENT;
 use super::extrapolation::{ROUNDING, TOLERANCE, larger, largest_of};
-use super::{Events, Modes, NO_EVENT, SIZE, SlidingStep, Vector, by_entry_count};
+use super::{EVALUATION_PLACE, Events, Modes, NO_EVENT, SIZE, SlidingStep, Vector, by_entry_count};
 
 /// The stages of the eighth-order solution.
 const STAGES: usize = 12;
@@ -409,6 +409,7 @@ impl SlidingStep<'_> {
         let mut stages = [[0.0; E]; STAGES];
         stages[0] = std::array::from_fn(|c| start_rates[c]);
         let mut at = *z;
+        let mut made = EVALUATION_PLACE;
         for s in 1..STAGES {
             let mut stage = from;
             for (j, rates) in stages[..s].iter().enumerate() {
@@ -420,11 +421,12 @@ impl SlidingStep<'_> {
                 }
             }
             at[..E].copy_from_slice(&stage);
-            let (rates, events) = self.rates(t + NODES[s] * length, &at, modes);
+            self.rates_into(t + NODES[s] * length, &at, modes, &mut made);
+            let (rates, events) = &made;
             if events.as_flattened().iter().any(|&e| e > -NEAR_EVENT) {
                 return HighOrder::NotSuited;
             }
-            samples[s] = events;
+            samples[s] = *events;
             stages[s].copy_from_slice(&rates[..E]);
         }
         if may_near_between(&samples) {

@@ -33,7 +33,7 @@
 
 use super::events::InteriorSearch;
 use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
-use super::{Events, Modes, SIZE, SlidingStep, Vector, by_entry_count};
+use super::{EVALUATION_PLACE, Events, Modes, SIZE, SlidingStep, Vector, by_entry_count};
 use crate::physics::stepper::phi::inverse_factorials;
 
 /// The most terms of one phi-series; a substep that needs more is too long for it.
@@ -250,10 +250,12 @@ impl SlidingStep<'_> {
         let stage_rates = |stage: usize, u: &[f64; E]| {
             let mut at = *z;
             at[..E].copy_from_slice(u);
-            let (rates, events) = self.rates(t + 0.5 * stage as f64 * length, &at, modes);
-            search.sample(stage, 0.5 * length, &events);
+            let mut made = EVALUATION_PLACE;
+            self.rates_into(t + 0.5 * stage as f64 * length, &at, modes, &mut made);
+            let (rates, events) = &made;
+            search.sample(stage, 0.5 * length, events);
             let near = stage == 2 && look_inside && search.found() != (None, None);
-            (!near).then(|| shortened::<E>(&rates))
+            (!near).then(|| shortened::<E>(rates))
         };
         let Some((fourth, third)) = exprb43(
             &linear,

@@ -10,7 +10,7 @@ use super::dormand_prince::HighOrder;
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
-use super::{Events, Modes, SIZE, SlidingStep, Vector, retry_shorter};
+use super::{EVALUATION_PLACE, Events, Modes, SIZE, SlidingStep, Vector, retry_shorter};
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -260,8 +260,10 @@ impl SlidingStep<'_> {
         let size = self.size();
         let mut search = InteriorSearch::new(start_events);
         let middle = self.advanced(z, start_rates, 0.5 * length);
-        let (middle_rates, middle_events) = self.rates(t + 0.5 * length, &middle, modes);
-        search.sample(1, 0.5 * length, &middle_events);
+        let mut middle_made = EVALUATION_PLACE;
+        self.rates_into(t + 0.5 * length, &middle, modes, &mut middle_made);
+        let (middle_rates, middle_events) = &middle_made;
+        search.sample(1, 0.5 * length, middle_events);
         let mut end = *z;
         for c in 0..size {
             end[c] += length * (2.0 * middle_rates[c] - start_rates[c]);
@@ -271,7 +273,7 @@ impl SlidingStep<'_> {
         for c in 0..size {
             third[c] += length * (start_rates[c] + 4.0 * middle_rates[c] + end_rates[c]) / 6.0;
         }
-        let second = self.advanced(z, &middle_rates, length);
+        let second = self.advanced(z, middle_rates, length);
         let error = self.error_ratio(z, &third, &second);
         let accurate = error <= 1.0 && third[..size].iter().all(|v| v.is_finite());
         if !accurate {

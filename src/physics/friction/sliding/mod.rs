@@ -609,14 +609,22 @@ impl<'a> SlidingStep<'a> {
     /// and the adjustment of [`SlidingStep::rates_adjusted`], the same values.
     #[inline]
     fn spring_rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
+        let mut made = EVALUATION_PLACE;
+        self.spring_rates_into(t, z, modes, &mut made);
+        made
+    }
+
+    /// [`SlidingStep::spring_rates`] written into `rates` and `events` (every entry).
+    #[inline(never)]
+    fn spring_rates_into(&self, t: f64, z: &Vector, modes: &Modes, (rates, events): &mut (Vector, Events)) {
         let layout = &self.layout;
         let x = layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
-        let mut rates = [0.0; SIZE];
+        rates.fill(0.0);
         for j in 0..layout.free_count {
             rates[j] = x_rates[layout.free[j]];
         }
-        let mut events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
+        *events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
         for slot in self.slots() {
             let input = self.slot_input(slot, &x, &x_rates, z);
             let sliding = modes[slot.group][slot.branch];
@@ -628,7 +636,17 @@ impl<'a> SlidingStep<'a> {
             }
             events[slot.group][slot.branch] = event;
         }
-        (rates, events)
+    }
+
+    /// [`SlidingStep::rates`] written into `made` (every entry): where an evaluation's
+    /// place is the caller's, its 200 bytes are not copied there.
+    #[inline]
+    fn rates_into(&self, t: f64, z: &Vector, modes: &Modes, made: &mut (Vector, Events)) {
+        if self.friction.damped() {
+            *made = self.rates_adjusted(t, z, modes, |_, _, _, _| {});
+        } else {
+            self.spring_rates_into(t, z, modes, made);
+        }
     }
 
     /// [`SlidingStep::rates`], each slot's rates then passed to `adjust` with its group
@@ -747,6 +765,8 @@ impl<'a> SlidingStep<'a> {
         let longest = self.longest_substep();
         let mut length = if self.stiff.get() { h } else { h.min(0.5 * longest) };
         let mut changes: Changes = [[0; MAX_BRANCHES]; Group::COUNT];
+        // The rates and event values at each substep's start and end, made in place.
+        let (mut start_made, mut end_made) = (EVALUATION_PLACE, EVALUATION_PLACE);
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
         // substeps the step's length needs, and a margin for events (never more than
@@ -772,8 +792,9 @@ impl<'a> SlidingStep<'a> {
             if self.exponential_suited() {
                 length = length.min(0.25 * longest);
             }
-            let (start_rates, start_events) = self.rates(t, &z, &modes);
-            let start = (&start_rates, &start_events);
+            self.rates_into(t, &z, &modes, &mut start_made);
+            let (start_rates, start_events) = (&start_made.0, &start_made.1);
+            let start = (start_rates, start_events);
             // A group the motion brings to its event within the substep: the substep ends
             // where its crossing is predicted, so that it locates the crossing itself.
             let planned = length;
@@ -835,10 +856,11 @@ impl<'a> SlidingStep<'a> {
                 self.switch_mode(&mut z, &mut modes, &mut changes, (g, i));
                 continue;
             }
-            let (end_rates, mut end_events) = self.rates(t + length, &z_end, &modes);
+            self.rates_into(t + length, &z_end, &modes, &mut end_made);
+            let (end_rates, end_events) = (&end_made.0, &mut end_made.1);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
-            if first_past_tolerance(&end_events).is_none()
+            if first_past_tolerance(end_events).is_none()
                 && let Some((sample, g, i)) = interior
                 && start_events[g][i] <= EVENT_TOLERANCE
                 // The predicted group nears its limit towards the end, as it should.
@@ -856,7 +878,7 @@ impl<'a> SlidingStep<'a> {
                 length = at;
                 z_end = z_at;
                 predicted = None;
-                end_events = self.events(t + at, &z_at, &modes);
+                *end_events = self.events(t + at, &z_at, &modes);
             }
             let candidate = |g: usize, i: usize| {
                 end_events[g][i] > EVENT_TOLERANCE && changes[g][i] < MAX_CHANGES_AT_AN_INSTANT
@@ -866,16 +888,16 @@ impl<'a> SlidingStep<'a> {
             // short step on from there (or back) reaches it.
             let settled = predicted.and_then(|(_, g, i)| {
                 if self
-                    .other_past_tolerance(&end_events, (g, i), may_change)
+                    .other_past_tolerance(end_events, (g, i), may_change)
                     .is_some()
                 {
                     return None;
                 }
-                let rate_change = self.rate_change(&start_rates, &end_rates, length);
+                let rate_change = self.rate_change(start_rates, end_rates, length);
                 self.settle_on_event(
                     t + length,
                     &z_end,
-                    (&start_events, &end_rates, &end_events, &rate_change),
+                    (start_events, end_rates, end_events, &rate_change),
                     (g, i),
                     &modes,
                     (length, h - t - length),
@@ -887,7 +909,7 @@ impl<'a> SlidingStep<'a> {
                 Some(event) => Ok(Some(event)),
                 None => self.earliest_crossing(
                     (t, &z, length, &modes),
-                    (&start_rates, &start_events, &end_events),
+                    (start_rates, start_events, end_events),
                     candidate,
                 ),
             };
@@ -997,6 +1019,9 @@ fn add_damper_force_change(
         }
     }
 }
+
+/// A place for an evaluation's rates and event values ([`SlidingStep::rates_into`]).
+const EVALUATION_PLACE: (Vector, Events) = ([0.0; SIZE], [[0.0; MAX_BRANCHES]; Group::COUNT]);
 
 /// What deciding the modes at a step's start found.
 struct Decided {
