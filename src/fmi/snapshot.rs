@@ -6,19 +6,20 @@
 //! bytes), phase u8, model u8, friction law u8, time, start time, stop-time flag u8, stop
 //! time, the parameters, inputs and input rates (f64 each), state count u32 and states
 //! (f64 each), slider flag u8 and, if 1, the branch offsets from their element's state (f64, by direction and
-//! branch), sliding flags (u8, by group and branch) and the length the eighth-order
-//! pair's next first substep may have (f64, positive, infinite for any), `tirFile` (u32 length + UTF-8
+//! branch), sliding flags (u8, by group and branch) and the lengths the eighth-order
+//! pair's first two substeps of the next step may have (f64 each, positive, infinite for
+//! any), `tirFile` (u32 length + UTF-8
 //! bytes) and which parameters the importer set (u8 each, by parameter), then an FNV-1a 64
 //! checksum of everything before it.
 
-use crate::physics::friction::{Direction, Group, MAX_BRANCHES, SliderState};
+use crate::physics::friction::{Direction, Group, HighOrderSubsteps, MAX_BRANCHES, SliderState};
 use crate::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters};
 
 use super::state_machine::Phase;
 use super::variables::GUID;
 
 const MAGIC: &[u8; 8] = b"TIRELAG\0";
-const FORMAT_VERSION: u32 = 4;
+const FORMAT_VERSION: u32 = 5;
 
 /// A complete copy of an instance's simulation state.
 #[derive(Clone, Debug, PartialEq)]
@@ -32,8 +33,9 @@ pub struct Snapshot {
     pub input_rates: [f64; Input::COUNT],
     pub states: Vec<f64>,
     /// The friction sliders (none for the Unlimited law), and how long the eighth-order
-    /// pair's next first substep may be (a step's values depend on it to rounding).
-    pub sliders: Option<(SliderState, f64)>,
+    /// pair's first two substeps of the next step may be (a step's values depend on them
+    /// to rounding).
+    pub sliders: Option<(SliderState, HighOrderSubsteps)>,
     /// `tirFile` as the importer set it.
     pub tire_data_file: String,
     /// By parameter: whether the importer set it.
@@ -71,12 +73,14 @@ impl Snapshot {
             out.extend_from_slice(&value.to_le_bytes());
         }
         out.push(u8::from(self.sliders.is_some()));
-        if let Some((sliders, first_substep)) = &self.sliders {
+        if let Some((sliders, high_order_substeps)) = &self.sliders {
             for value in sliders.offsets.iter().flatten() {
                 out.extend_from_slice(&value.to_le_bytes());
             }
             out.extend(sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
-            out.extend_from_slice(&first_substep.to_le_bytes());
+            for length in high_order_substeps {
+                out.extend_from_slice(&length.to_le_bytes());
+            }
         }
         out.extend_from_slice(&(self.tire_data_file.len() as u32).to_le_bytes());
         out.extend_from_slice(self.tire_data_file.as_bytes());
@@ -159,13 +163,16 @@ impl Snapshot {
                         other => return Err(format!("sliding flag {other} is neither 0 nor 1")),
                     };
                 }
-                let first_substep = r.f64()?;
-                if first_substep.is_nan() || first_substep <= 0.0 {
-                    return Err(format!(
-                        "the first substep's length {first_substep} in the FMU state is not positive"
-                    ));
+                let mut high_order_substeps = [0.0; 2];
+                for length in &mut high_order_substeps {
+                    *length = r.f64()?;
+                    if length.is_nan() || *length <= 0.0 {
+                        return Err(format!(
+                            "the substep length {length} in the FMU state is not positive"
+                        ));
+                    }
                 }
-                Some((sliders, first_substep))
+                Some((sliders, high_order_substeps))
             }
             flag => {
                 return Err(format!(
@@ -266,7 +273,7 @@ mod tests {
                     offsets: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
                     sliding: [[true, false, false, true], [false; 4]],
                 },
-                3.5e-4,
+                [3.5e-4, f64::INFINITY],
             )),
             tire_data_file: "tires/front ü.tir".into(),
             set_by_importer: std::array::from_fn(|k| k % 3 == 0),
@@ -295,15 +302,17 @@ mod tests {
     }
 
     #[test]
-    fn refuses_a_first_substep_that_is_not_positive() {
-        for bad in [0.0, -1e-3, f64::NAN, f64::NEG_INFINITY] {
-            let mut s = sample();
-            s.sliders.as_mut().expect("sliders").1 = bad;
-            let refused = Snapshot::from_bytes(&s.to_bytes()).unwrap_err();
-            assert!(refused.contains("first substep"), "{bad}: {refused}");
+    fn refuses_a_substep_length_that_is_not_positive() {
+        for which in 0..2 {
+            for bad in [0.0, -1e-3, f64::NAN, f64::NEG_INFINITY] {
+                let mut s = sample();
+                s.sliders.as_mut().expect("sliders").1[which] = bad;
+                let refused = Snapshot::from_bytes(&s.to_bytes()).unwrap_err();
+                assert!(refused.contains("substep length"), "{bad}: {refused}");
+            }
         }
         let mut any = sample();
-        any.sliders.as_mut().expect("sliders").1 = f64::INFINITY;
+        any.sliders.as_mut().expect("sliders").1 = [f64::INFINITY; 2];
         assert_eq!(Snapshot::from_bytes(&any.to_bytes()).unwrap(), any);
     }
 

@@ -756,9 +756,14 @@ impl Instance {
     }
 
     /// The friction sliders and the eighth-order pair's next first substep
-    /// ([`Tire::high_order_first_substep`]), for the selected model and law (at rest, and
-    /// any length, if the tire is still the one of another selection).
-    fn sliders_of_selected_law(&self) -> Option<(crate::physics::friction::SliderState, f64)> {
+    /// ([`Tire::high_order_substeps`]), for the selected model and law (at rest, and any
+    /// lengths, if the tire is still the one of another selection).
+    fn sliders_of_selected_law(
+        &self,
+    ) -> Option<(
+        crate::physics::friction::SliderState,
+        crate::physics::friction::HighOrderSubsteps,
+    )> {
         if self.parameters.friction == FrictionLaw::Unlimited {
             return None;
         }
@@ -768,8 +773,8 @@ impl Instance {
             self.tire
                 .sliders()
                 .filter(|_| same)
-                .map(|sliders| (*sliders, self.tire.high_order_first_substep()))
-                .unwrap_or((crate::physics::friction::SliderState::AT_REST, f64::INFINITY)),
+                .map(|sliders| (*sliders, self.tire.high_order_substeps()))
+                .unwrap_or((crate::physics::friction::SliderState::AT_REST, [f64::INFINITY; 2])),
         )
     }
 
@@ -809,9 +814,9 @@ impl Instance {
         let mut tire = match Tire::new(snapshot.parameters.clone()) {
             Ok(mut tire) => {
                 tire.set_states(&snapshot.states).map_err(Rejection::error)?;
-                if let Some((sliders, first_substep)) = &snapshot.sliders {
+                if let Some((sliders, high_order_substeps)) = &snapshot.sliders {
                     tire.set_sliders(sliders).map_err(Rejection::error)?;
-                    tire.set_high_order_first_substep(*first_substep);
+                    tire.set_high_order_substeps(*high_order_substeps);
                 }
                 tire
             }

@@ -46,7 +46,7 @@ mod sticking;
 mod vocabulary;
 
 /// Event values by group and branch.
-pub use sliding::{Events, NO_EVENT};
+pub use sliding::{Events, HighOrderSubsteps, NO_EVENT};
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
     ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, InverseLimits, Limits,
@@ -122,10 +122,10 @@ pub struct Friction {
     check: StickingCheck,
     /// The branches as the last sliding step laid them out.
     sliding_slots: sliding::SlidingSlots,
-    /// How long the eighth-order pair's first substep of the last sliding step that took
-    /// one could have been, s (infinite where the last took none): where the next
-    /// sliding step's first substep by the pair starts.
-    high_order_first_substep: f64,
+    /// How long the eighth-order pair's first two substeps of the last sliding step could
+    /// have been, s (infinite where it took no such substep): where the next sliding
+    /// step's first two substeps by the pair start ([`HighOrderSubsteps`]).
+    high_order_substeps: HighOrderSubsteps,
 }
 
 impl Friction {
@@ -242,7 +242,7 @@ impl Friction {
             together: true,
             check: StickingCheck::default(),
             sliding_slots: sliding::SlidingSlots::default(),
-            high_order_first_substep: f64::INFINITY,
+            high_order_substeps: [f64::INFINITY; 2],
         })
     }
 
@@ -278,15 +278,15 @@ impl Friction {
         &self.state
     }
 
-    /// How long the eighth-order pair's next first substep may be, s (infinite: as long
-    /// as the rest of its step). Part of the tire's state, as the FMU state holds it:
-    /// a step's substeps depend on it, and so its values to within the tolerance.
-    pub fn high_order_first_substep(&self) -> f64 {
-        self.high_order_first_substep
+    /// How long the eighth-order pair's first two substeps of the next sliding step may
+    /// be, s ([`HighOrderSubsteps`]). Part of the tire's state, as the FMU state holds
+    /// it: a step's substeps depend on it, and so its values to within the tolerance.
+    pub fn high_order_substeps(&self) -> HighOrderSubsteps {
+        self.high_order_substeps
     }
 
-    pub fn set_high_order_first_substep(&mut self, length: f64) {
-        self.high_order_first_substep = length;
+    pub fn set_high_order_substeps(&mut self, lengths: HighOrderSubsteps) {
+        self.high_order_substeps = lengths;
     }
 
     pub fn set_state(&mut self, state: SliderState) {

@@ -7,7 +7,7 @@ use std::fmt;
 
 use super::friction::separable::SeparableStep;
 use super::friction::sliding::{Preparation, SlidingStep};
-use super::friction::{Friction, Limits, LinearStep, SliderState};
+use super::friction::{Friction, HighOrderSubsteps, Limits, LinearStep, SliderState};
 use super::load::{InverseLengthFactors, LoadLaw};
 use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
@@ -162,19 +162,18 @@ impl Tire {
         self.friction.as_ref().map(|f| f.state())
     }
 
-    /// How long the eighth-order pair's first substep of the next sliding step may be, s
-    /// (infinite: any; and for the Unlimited law): the first substep the last one took by
-    /// it, as long as its error control expected to take it.
-    pub fn high_order_first_substep(&self) -> f64 {
+    /// How long the eighth-order pair's first two substeps of the next sliding step may
+    /// be, s ([`HighOrderSubsteps`]; infinite for the Unlimited law).
+    pub fn high_order_substeps(&self) -> HighOrderSubsteps {
         self.friction
             .as_ref()
-            .map_or(f64::INFINITY, Friction::high_order_first_substep)
+            .map_or([f64::INFINITY; 2], Friction::high_order_substeps)
     }
 
-    /// Replaces [`Tire::high_order_first_substep`] (ignored for the Unlimited law).
-    pub fn set_high_order_first_substep(&mut self, length: f64) {
+    /// Replaces [`Tire::high_order_substeps`] (ignored for the Unlimited law).
+    pub fn set_high_order_substeps(&mut self, lengths: HighOrderSubsteps) {
         if let Some(friction) = self.friction.as_mut() {
-            friction.set_high_order_first_substep(length);
+            friction.set_high_order_substeps(lengths);
         }
     }
 
@@ -644,7 +643,7 @@ impl Tire {
                             .then(|| SeparableStep::new(state_space, friction, &limits, u0))
                             .flatten()
                             .and_then(|step| step.step(&self.states, friction.state(), h));
-                        let mut high_order_first_substep = friction.high_order_first_substep();
+                        let mut high_order_substeps = friction.high_order_substeps();
                         let (end, sliders) = match separable {
                             Some(end) => end,
                             None => {
@@ -677,7 +676,7 @@ impl Tire {
                                         shaped_outputs(&sliding_step, &end, &sliders, u0);
                                     shaped = Some(outputs);
                                 }
-                                high_order_first_substep = sliding_step.high_order_first_substep();
+                                high_order_substeps = sliding_step.high_order_substeps();
                                 (end, sliders)
                             }
                         };
@@ -686,7 +685,7 @@ impl Tire {
                         }
                         next_states = end;
                         friction.set_state(sliders);
-                        friction.set_high_order_first_substep(high_order_first_substep);
+                        friction.set_high_order_substeps(high_order_substeps);
                         sliding = true;
                     }
                 }

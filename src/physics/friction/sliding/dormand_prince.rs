@@ -19,7 +19,9 @@
 
 use super::events::NEAR_EVENT;
 use super::extrapolation::{ROUNDING, TOLERANCE, larger, largest_of};
-use super::{EVALUATION_PLACE, Events, Modes, NO_EVENT, SIZE, SlidingStep, Vector, by_entry_count};
+use super::{
+    EVALUATION_PLACE, Events, HighOrderSubsteps, Modes, NO_EVENT, SIZE, SlidingStep, Vector, by_entry_count,
+};
 
 /// The stages of the eighth-order solution.
 const STAGES: usize = 12;
@@ -249,13 +251,16 @@ const COUPLING: [[f64; STAGES]; STAGES] = [
 /// at most 0.26 of the estimate in 99 % of the substeps and 0.16 in half of them.
 const ESTIMATE_MARGIN: f64 = 4.0;
 
-/// The error estimate, in tolerances, that the first substep of a step by the pair aims
-/// at (the next ones aim at a third of [`ESTIMATE_MARGIN`], with a margin). A slide's
-/// error is largest where its force turns, at the step's start, and falls within the
-/// step, so the first substep is the step's shortest; the next step starts with the
-/// length it could have had, where it would otherwise try the whole step. Over 2000
-/// steps of the slide yardstick's combined case (1 ms), a first substep of RingBody's
-/// came back too long in 19 steps, where 800 tried the whole step in vain before.
+/// The error estimate, in tolerances, that the lengths carried to the next step aim at
+/// ([`HighOrderSubsteps`]; the substeps within a step aim at a third of
+/// [`ESTIMATE_MARGIN`], with a margin). A slide's error is largest where its force turns,
+/// at the step's start, and falls within the step, so its first substep is the shortest
+/// and the second may be longer than the first's error would allow; the next step starts
+/// with the lengths they could have had, where it would otherwise try the whole step and
+/// then substeps as short as the first. Over 2000 steps of the slide yardstick's combined
+/// case (1 ms), RingBody's sliding steps took three or four substeps by the pair, a
+/// first attempt at the whole step coming back too long in 800 of them; with the first
+/// length carried, three and a miss in 19; with both, two and no miss.
 const FIRST_AIM: f64 = 3.0;
 
 /// `x^(1/8)` by three square roots (a power would cost several times more).
@@ -369,15 +374,40 @@ pub(super) enum HighOrder {
 }
 
 impl SlidingStep<'_> {
-    /// The first substep the pair took in this step, as long as its error control
-    /// expects to take it ([`SlidingStep::high_order_first_substep`]); infinite where it
-    /// took none.
-    pub fn high_order_first_substep(&self) -> f64 {
-        if self.high_order_taken.get() {
-            self.high_order_first_substep.get()
+    /// [`HighOrderSubsteps`] as this step found them, for the next.
+    pub fn high_order_substeps(&self) -> HighOrderSubsteps {
+        self.high_order_found.get()
+    }
+
+    /// The length the pair's first substep of this step tries, from `asked`: at most the
+    /// first the last step could have taken.
+    pub(super) fn high_order_first_length(&self, asked: f64) -> f64 {
+        if self.high_order_taken.get() == 0 {
+            asked.min(self.high_order_carried[0])
         } else {
-            f64::INFINITY
+            asked
         }
+    }
+
+    /// The next substep's length, from `asked`, where it is the pair's second of the
+    /// step: at least the second the last step could have taken (the caller keeps it
+    /// within the rest of the step and the longest substep).
+    pub(super) fn high_order_second_length(&self, asked: f64) -> f64 {
+        if self.high_order_taken.get() == 1 && self.high_order_suited() {
+            asked.max(self.high_order_carried[1])
+        } else {
+            asked
+        }
+    }
+
+    /// Notes a substep taken by the pair, which could have been `longest`.
+    pub(super) fn high_order_substep_taken(&self, longest: f64) {
+        let (taken, mut found) = (self.high_order_taken.get(), self.high_order_found.get());
+        if let Some(length) = found.get_mut(taken) {
+            *length = longest;
+        }
+        self.high_order_found.set(found);
+        self.high_order_taken.set(taken + 1);
     }
 
     /// A substep of `length` from `z` with its `start` rates and event values by the

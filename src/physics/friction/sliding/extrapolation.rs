@@ -185,19 +185,11 @@ impl SlidingStep<'_> {
                         }
                     }
                     if self.high_order_suited() {
-                        // The step's first substep by the pair is tried as long as the
-                        // last step's first was taken (at most).
-                        let tried = if self.high_order_taken.get() {
-                            asked
-                        } else {
-                            asked.min(self.high_order_first_substep.get())
-                        };
+                        let tried = self.high_order_first_length(asked);
                         match self.high_order_substep(t, z, start, tried, modes) {
                             HighOrder::Taken(end, growth, longest) => {
                                 self.high_order_misses.set(0);
-                                if !self.high_order_taken.replace(true) {
-                                    self.high_order_first_substep.set(longest);
-                                }
+                                self.high_order_substep_taken(longest);
                                 *length = tried;
                                 return Ok(((end, growth, None, 0.5 * tried), End::Clear));
                             }

@@ -488,12 +488,13 @@ pub struct SlidingStep<'a> {
     exponential_misses: Cell<u8>,
     /// Substeps by the eighth-order pair that came back too long in a row.
     high_order_misses: Cell<u8>,
-    /// The length of the first substep the pair takes in this step, at most, s: carried
-    /// from the last step that took one ([`SlidingStep::high_order_first_substep`]), then
-    /// this step's own.
-    high_order_first_substep: Cell<f64>,
-    /// Whether a substep of this step was taken by the pair.
-    high_order_taken: Cell<bool>,
+    /// How long the pair's first two substeps may be, as the last sliding step found
+    /// ([`HighOrderSubsteps`]).
+    high_order_carried: HighOrderSubsteps,
+    /// The same as this step finds them ([`SlidingStep::high_order_substeps`]).
+    high_order_found: Cell<HighOrderSubsteps>,
+    /// Substeps of this step taken by the pair.
+    high_order_taken: Cell<usize>,
     /// How fast the groups found sliding at the start move their forces, 1/s
     /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
     start_sliding_rate: Cell<f64>,
@@ -527,7 +528,7 @@ impl<'a> SlidingStep<'a> {
         start_scale: f64,
     ) -> Self {
         friction.lay_out_sliding(system, &limits);
-        let high_order_first_substep = friction.high_order_first_substep();
+        let high_order_carried = friction.high_order_substeps();
         let friction: &'a Friction = friction;
         let laid_out = &friction.sliding_slots;
         Self {
@@ -544,8 +545,9 @@ impl<'a> SlidingStep<'a> {
             high_order_declined: Cell::new(false),
             exponential_misses: Cell::new(0),
             high_order_misses: Cell::new(0),
-            high_order_first_substep: Cell::new(high_order_first_substep),
-            high_order_taken: Cell::new(false),
+            high_order_carried,
+            high_order_found: Cell::new([f64::INFINITY; 2]),
+            high_order_taken: Cell::new(0),
             start_sliding_rate: Cell::new(0.0),
         }
     }
@@ -732,6 +734,8 @@ impl<'a> SlidingStep<'a> {
         self.exponential_declined.set(false);
         self.high_order_declined.set(false);
         self.high_order_misses.set(0);
+        self.high_order_taken.set(0);
+        self.high_order_found.set([f64::INFINITY; 2]);
         self.exponential_misses.set(0);
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
@@ -785,6 +789,7 @@ impl<'a> SlidingStep<'a> {
             // below `longest`: the extrapolated ones for stability, the exponential ones
             // so that their samples of the event values are as close (a limit touched
             // and left again inside a substep shows between them).
+            length = self.high_order_second_length(length);
             length = length.min(h - t);
             if !self.stiff.get() {
                 length = length.min(longest);
@@ -1019,6 +1024,14 @@ fn add_damper_force_change(
         }
     }
 }
+
+/// How long the eighth-order pair's first and second substeps of a step could have been,
+/// s: each the length at which the pair's estimate from the same start would have been
+/// its aim for them ([`dormand_prince`]); infinite where the step took no such substep.
+/// The next step starts its first two substeps by the pair with them: a combined slide's
+/// error is largest where its force turns, at a step's start, so its first substep is
+/// its shortest, and the second may be longer than the first's error would allow.
+pub type HighOrderSubsteps = [f64; 2];
 
 /// A place for an evaluation's rates and event values ([`SlidingStep::rates_into`]).
 const EVALUATION_PLACE: (Vector, Events) = ([0.0; SIZE], [[0.0; MAX_BRANCHES]; Group::COUNT]);
