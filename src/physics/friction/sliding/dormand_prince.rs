@@ -389,25 +389,22 @@ impl SlidingStep<'_> {
         }
     }
 
-    /// The next substep's length, from `asked`, where it is the pair's second of the
-    /// step: at least the second the last step could have taken (the caller keeps it
-    /// within the rest of the step and the longest substep).
-    pub(super) fn high_order_second_length(&self, asked: f64) -> f64 {
-        if self.high_order_taken.get() == 1 && self.high_order_suited() {
-            asked.max(self.high_order_carried[1])
-        } else {
-            asked
-        }
-    }
-
-    /// Notes a substep taken by the pair, which could have been `longest`.
-    pub(super) fn high_order_substep_taken(&self, longest: f64) {
+    /// Notes a substep of `length` taken by the pair, which could have been `longest`,
+    /// and gives the factor by which the next may grow, from the pair's `growth`: after
+    /// the step's first, to at least the second the last step could have taken (the
+    /// caller keeps it within the rest of the step and the longest substep).
+    pub(super) fn high_order_substep_taken(&self, length: f64, growth: f64, longest: f64) -> f64 {
         let (taken, mut found) = (self.high_order_taken.get(), self.high_order_found.get());
-        if let Some(length) = found.get_mut(taken) {
-            *length = longest;
+        if let Some(found) = found.get_mut(taken) {
+            *found = longest;
         }
         self.high_order_found.set(found);
         self.high_order_taken.set(taken + 1);
+        if taken == 0 {
+            growth.max(self.high_order_carried[1] / length)
+        } else {
+            growth
+        }
     }
 
     /// A substep of `length` from `z` with its `start` rates and event values by the

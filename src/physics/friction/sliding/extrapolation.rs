@@ -189,7 +189,7 @@ impl SlidingStep<'_> {
                         match self.high_order_substep(t, z, start, tried, modes) {
                             HighOrder::Taken(end, growth, longest) => {
                                 self.high_order_misses.set(0);
-                                self.high_order_substep_taken(longest);
+                                let growth = self.high_order_substep_taken(tried, growth, longest);
                                 *length = tried;
                                 return Ok(((end, growth, None, 0.5 * tried), End::Clear));
                             }

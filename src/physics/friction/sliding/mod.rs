@@ -746,6 +746,8 @@ impl<'a> SlidingStep<'a> {
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
             return Ok(());
         }
+        // The explicit substeps were given up: their lengths tell the next step nothing.
+        self.high_order_found.set([f64::INFINITY; 2]);
         self.stiff.set(true);
         self.integrate_by_current_method(x, sliders, h)
     }
@@ -789,7 +791,6 @@ impl<'a> SlidingStep<'a> {
             // below `longest`: the extrapolated ones for stability, the exponential ones
             // so that their samples of the event values are as close (a limit touched
             // and left again inside a substep shows between them).
-            length = self.high_order_second_length(length);
             length = length.min(h - t);
             if !self.stiff.get() {
                 length = length.min(longest);
