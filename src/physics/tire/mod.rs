@@ -639,10 +639,15 @@ impl Tire {
                         let limits = friction.limits();
                         // Each branch by itself where they move on their own (RLT under
                         // held inputs); otherwise, or if that gives up, all together.
-                        let separable = driving_held
-                            .then(|| SeparableStep::new(state_space, friction, &limits, u0))
-                            .flatten()
-                            .and_then(|step| step.step(&self.states, friction.state(), h));
+                        // (Used where it is made: moved through options, the step's
+                        // branches were copied twice.)
+                        let separable = if driving_held {
+                            let step = SeparableStep::new(state_space, friction, &limits, u0);
+                            step.as_ref()
+                                .and_then(|step| step.step(&self.states, friction.state(), h))
+                        } else {
+                            None
+                        };
                         let mut high_order_substeps = friction.high_order_substeps();
                         let (end, sliders) = match separable {
                             Some(end) => end,
