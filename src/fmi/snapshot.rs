@@ -21,6 +21,15 @@ use super::variables::GUID;
 const MAGIC: &[u8; 8] = b"TIRELAG\0";
 const FORMAT_VERSION: u32 = 5;
 
+/// The friction's part of an FMU state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrictionState {
+    pub sliders: SliderState,
+    /// How long the eighth-order pair's first two substeps of the next step may be: a
+    /// step's values depend on them to rounding.
+    pub high_order_substeps: HighOrderSubsteps,
+}
+
 /// A complete copy of an instance's simulation state.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
@@ -32,10 +41,8 @@ pub struct Snapshot {
     pub inputs: [f64; Input::COUNT],
     pub input_rates: [f64; Input::COUNT],
     pub states: Vec<f64>,
-    /// The friction sliders (none for the Unlimited law), and how long the eighth-order
-    /// pair's first two substeps of the next step may be (a step's values depend on them
-    /// to rounding).
-    pub sliders: Option<(SliderState, HighOrderSubsteps)>,
+    /// The friction's state (none for the Unlimited law).
+    pub friction: Option<FrictionState>,
     /// `tirFile` as the importer set it.
     pub tire_data_file: String,
     /// By parameter: whether the importer set it.
@@ -72,13 +79,13 @@ impl Snapshot {
         for value in &self.states {
             out.extend_from_slice(&value.to_le_bytes());
         }
-        out.push(u8::from(self.sliders.is_some()));
-        if let Some((sliders, high_order_substeps)) = &self.sliders {
-            for value in sliders.offsets.iter().flatten() {
+        out.push(u8::from(self.friction.is_some()));
+        if let Some(friction) = &self.friction {
+            for value in friction.sliders.offsets.iter().flatten() {
                 out.extend_from_slice(&value.to_le_bytes());
             }
-            out.extend(sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
-            for length in high_order_substeps {
+            out.extend(friction.sliders.sliding.iter().flatten().map(|&s| u8::from(s)));
+            for length in friction.high_order_substeps {
                 out.extend_from_slice(&length.to_le_bytes());
             }
         }
@@ -149,7 +156,7 @@ impl Snapshot {
             ));
         }
         let states = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
-        let sliders = match r.u8()? {
+        let friction = match r.u8()? {
             0 if friction == FrictionLaw::Unlimited => None,
             1 if friction != FrictionLaw::Unlimited => {
                 let mut sliders = SliderState::AT_REST;
@@ -172,7 +179,10 @@ impl Snapshot {
                         ));
                     }
                 }
-                Some((sliders, high_order_substeps))
+                Some(FrictionState {
+                    sliders,
+                    high_order_substeps,
+                })
             }
             flag => {
                 return Err(format!(
@@ -207,7 +217,7 @@ impl Snapshot {
             .chain(&inputs)
             .chain(&input_rates)
             .chain(&states)
-            .chain(sliders.iter().flat_map(|(s, _)| s.offsets.iter().flatten()))
+            .chain(friction.iter().flat_map(|f| f.sliders.offsets.iter().flatten()))
             .all(|v| v.is_finite());
         if !all_finite {
             return Err("the FMU state holds a value that is not finite".into());
@@ -221,7 +231,7 @@ impl Snapshot {
             inputs,
             input_rates,
             states,
-            sliders,
+            friction,
             tire_data_file,
             set_by_importer,
         })
@@ -268,13 +278,13 @@ mod tests {
             inputs: [1.0, -0.2, 0.1, 0.05, 40000.0],
             input_rates: [0.0, 0.5, 0.0, 0.0, 0.0],
             states: vec![1e-3, -2e-3, 0.1, 4e-4, 5e-5, -0.2],
-            sliders: Some((
-                SliderState {
+            friction: Some(FrictionState {
+                sliders: SliderState {
                     offsets: [[1e-3, 2e-3, 3e-3, 4e-3], [-1e-3, 0.0, 5e-4, 0.1], [0.0; 4]],
                     sliding: [[true, false, false, true], [false; 4]],
                 },
-                [3.5e-4, f64::INFINITY],
-            )),
+                high_order_substeps: [3.5e-4, f64::INFINITY],
+            }),
             tire_data_file: "tires/front ü.tir".into(),
             set_by_importer: std::array::from_fn(|k| k % 3 == 0),
         }
@@ -306,13 +316,13 @@ mod tests {
         for which in 0..2 {
             for bad in [0.0, -1e-3, f64::NAN, f64::NEG_INFINITY] {
                 let mut s = sample();
-                s.sliders.as_mut().expect("sliders").1[which] = bad;
+                s.friction.as_mut().expect("friction").high_order_substeps[which] = bad;
                 let refused = Snapshot::from_bytes(&s.to_bytes()).unwrap_err();
                 assert!(refused.contains("substep length"), "{bad}: {refused}");
             }
         }
         let mut any = sample();
-        any.sliders.as_mut().expect("sliders").1 = [f64::INFINITY; 2];
+        any.friction.as_mut().expect("friction").high_order_substeps = [f64::INFINITY; 2];
         assert_eq!(Snapshot::from_bytes(&any.to_bytes()).unwrap(), any);
     }
 

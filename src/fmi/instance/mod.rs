@@ -11,7 +11,7 @@ use crate::physics::tire::hybrid::{CONTINUOUS_STATES, ContinuousStates, GUARDS};
 use crate::physics::{FrictionLaw, Input, ModelKind, Output, Parameter, Parameters, Tire};
 
 use super::logger::{Category, Logger};
-use super::snapshot::Snapshot;
+use super::snapshot::{FrictionState, Snapshot};
 use super::state_machine::{Call, Phase};
 use super::status::{CallResult, Rejection, Status};
 use super::variables::{
@@ -755,27 +755,26 @@ impl Instance {
         }
     }
 
-    /// The friction sliders and the eighth-order pair's next first substep
-    /// ([`Tire::high_order_substeps`]), for the selected model and law (at rest, and any
-    /// lengths, if the tire is still the one of another selection).
-    fn sliders_of_selected_law(
-        &self,
-    ) -> Option<(
-        crate::physics::friction::SliderState,
-        crate::physics::friction::HighOrderSubsteps,
-    )> {
+    /// The friction's state: the sliders and the lengths the eighth-order pair's first
+    /// two substeps of the next step start from ([`Tire::high_order_substeps`]), for the
+    /// selected model and law (at rest, and any lengths, if the tire is still the one of
+    /// another selection).
+    fn friction_state_of_selected_law(&self) -> Option<FrictionState> {
         if self.parameters.friction == FrictionLaw::Unlimited {
             return None;
         }
         let same = self.tire.parameters().model == self.parameters.model
             && self.tire.parameters().friction == self.parameters.friction;
-        Some(
-            self.tire
-                .sliders()
-                .filter(|_| same)
-                .map(|sliders| (*sliders, self.tire.high_order_substeps()))
-                .unwrap_or((crate::physics::friction::SliderState::AT_REST, [f64::INFINITY; 2])),
-        )
+        Some(match self.tire.sliders().filter(|_| same) {
+            Some(sliders) => FrictionState {
+                sliders: *sliders,
+                high_order_substeps: self.tire.high_order_substeps(),
+            },
+            None => FrictionState {
+                sliders: crate::physics::friction::SliderState::AT_REST,
+                high_order_substeps: [f64::INFINITY; 2],
+            },
+        })
     }
 
     pub fn snapshot(&self) -> CallResult<Snapshot> {
@@ -789,7 +788,7 @@ impl Instance {
             inputs: Input::ALL.map(|i| self.tire.input(i)),
             input_rates: Input::ALL.map(|i| self.tire.input_rate(i)),
             states: self.states_of_selected_model(),
-            sliders: self.sliders_of_selected_law(),
+            friction: self.friction_state_of_selected_law(),
             tire_data_file: self.tire_data_file.to_string_lossy().into_owned(),
             set_by_importer: self.set_by_importer,
         })
@@ -814,9 +813,9 @@ impl Instance {
         let mut tire = match Tire::new(snapshot.parameters.clone()) {
             Ok(mut tire) => {
                 tire.set_states(&snapshot.states).map_err(Rejection::error)?;
-                if let Some((sliders, high_order_substeps)) = &snapshot.sliders {
-                    tire.set_sliders(sliders).map_err(Rejection::error)?;
-                    tire.set_high_order_substeps(*high_order_substeps);
+                if let Some(friction) = &snapshot.friction {
+                    tire.set_sliders(&friction.sliders).map_err(Rejection::error)?;
+                    tire.set_high_order_substeps(friction.high_order_substeps);
                 }
                 tire
             }

@@ -528,12 +528,12 @@ impl<'a> GroupInput<'a> {
         if self.count == MAX_MEMBERS {
             self.planar_damped_sliding_slopes(rate, slopes);
         } else {
-            self.any_damped_sliding_slopes(rate, slopes);
+            self.general_damped_sliding_slopes(rate, slopes);
         }
     }
 
     /// [`GroupInput::damped_sliding_slopes`] over the members there are.
-    fn any_damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
+    fn general_damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
         let trial = self.sticking_force();
         // The force `K b + Dw db/dt`, and the multiplier from the member farthest along
         // its limit: `q_k = T_k / F_k`.
@@ -576,9 +576,9 @@ impl<'a> GroupInput<'a> {
         let force = [0, 1].map(|k| stiffness[k] * self.deflection[k] + damping[k] * rate[k]);
         let along = [0, 1].map(|k| (force[k] * inverse_limit[k]).abs());
         // The member farthest along its limit (the first where they tie; none at zero).
-        let first_farthest = if along[0] > 0.0 { along[0] } else { 0.0 };
+        let farthest_of_first = if along[0] > 0.0 { along[0] } else { 0.0 };
         let lambda_of = |k: usize| (trial[k] / force[k] - 1.0) / weight[k];
-        let lambda = if along[1] > first_farthest {
+        let lambda = if along[1] > farthest_of_first {
             lambda_of(1)
         } else if along[0] > 0.0 {
             lambda_of(0)
@@ -586,10 +586,10 @@ impl<'a> GroupInput<'a> {
             0.0
         };
         let inverse_q = [0, 1].map(|k| (1.0 + lambda * weight[k]).recip());
-        let along = [0, 1].map(|k| force[k] * inverse_limit[k] * inverse_limit[k] * inverse_q[k]);
-        let sum = 0.0 + along[0] * force[0] * weight[0] + along[1] * force[1] * weight[1];
+        let normal = [0, 1].map(|k| force[k] * inverse_limit[k] * inverse_limit[k] * inverse_q[k]);
+        let sum = 0.0 + normal[0] * force[0] * weight[0] + normal[1] * force[1] * weight[1];
         for j in 0..MAX_MEMBERS {
-            let multiplier_slope = if sum != 0.0 { along[j] / sum } else { 0.0 };
+            let multiplier_slope = if sum != 0.0 { normal[j] / sum } else { 0.0 };
             for k in 0..MAX_MEMBERS {
                 let delta = if k == j { 1.0 } else { 0.0 };
                 let force_slope = (delta - force[k] * weight[k] * multiplier_slope) * inverse_q[k];
@@ -883,7 +883,7 @@ mod tests {
                 let rate = input.evaluate(true).rate;
                 let (mut planar_slopes, mut general) = (RateSlopes::default(), RateSlopes::default());
                 input.planar_damped_sliding_slopes(&rate, &mut planar_slopes);
-                input.any_damped_sliding_slopes(&rate, &mut general);
+                input.general_damped_sliding_slopes(&rate, &mut general);
                 let bits = |s: &RateSlopes| {
                     (s.by_deflection
                         .as_flattened()

@@ -122,9 +122,11 @@ pub struct Friction {
     check: StickingCheck,
     /// The branches as the last sliding step laid them out.
     sliding_slots: sliding::SlidingSlots,
-    /// How long the eighth-order pair's first two substeps of the last sliding step could
-    /// have been, s (infinite where it took no such substep): where the next sliding
-    /// step's first two substeps by the pair start ([`HighOrderSubsteps`]).
+    /// How long the eighth-order pair's first two substeps of the last step integrated
+    /// with sliding (not by RLT's branch-by-branch step) could have been, s: where the
+    /// next such step's first two substeps by the pair start ([`HighOrderSubsteps`]).
+    /// Infinite where it took no such substep, and after a reset or a lift-off; steps
+    /// that stick throughout leave them.
     high_order_substeps: HighOrderSubsteps,
 }
 
@@ -271,6 +273,7 @@ impl Friction {
     /// outside), all sticking.
     pub fn reset(&mut self) {
         self.set_state(SliderState::AT_REST);
+        self.high_order_substeps = [f64::INFINITY; 2];
     }
 
     /// Each branch's offset and whether its groups slide.
@@ -285,6 +288,7 @@ impl Friction {
         self.high_order_substeps
     }
 
+    /// Replaces [`Friction::high_order_substeps`] (from an FMU state).
     pub fn set_high_order_substeps(&mut self, lengths: HighOrderSubsteps) {
         self.high_order_substeps = lengths;
     }
@@ -388,5 +392,6 @@ impl Friction {
         state.offsets.iter_mut().flatten().for_each(|o| *o *= decay);
         state.sliding = SliderState::AT_REST.sliding;
         self.set_state(state);
+        self.high_order_substeps = [f64::INFINITY; 2];
     }
 }

@@ -664,7 +664,7 @@ impl Tire {
                                 // A step from where the last one ended, with nothing
                                 // changed since: its outputs decided the modes here.
                                 match prepared.filter(|(key, _)| key.same_as(&made_for)) {
-                                    Some((_, prepared)) => sliding_step.prepare_as(&mut sliders, &prepared),
+                                    Some((_, prepared)) => sliding_step.prepare_from(&mut sliders, &prepared),
                                     None => {
                                         sliding_step.prepare(&mut end, &mut sliders);
                                     }

@@ -20,7 +20,7 @@
 use super::events::NEAR_EVENT;
 use super::extrapolation::{ROUNDING, TOLERANCE, larger, largest_of};
 use super::{
-    EVALUATION_PLACE, Events, HighOrderSubsteps, Modes, NO_EVENT, SIZE, SlidingStep, Vector, by_entry_count,
+    Events, HighOrderSubsteps, Modes, NO_EVENT, SIZE, SlidingStep, UNEVALUATED, Vector, by_entry_count,
 };
 
 /// The stages of the eighth-order solution.
@@ -261,7 +261,7 @@ const ESTIMATE_MARGIN: f64 = 4.0;
 /// case (1 ms), RingBody's sliding steps took three or four substeps by the pair, a
 /// first attempt at the whole step coming back too long in 800 of them; with the first
 /// length carried, three and a miss in 19; with both, two and no miss.
-const FIRST_AIM: f64 = 3.0;
+const CARRIED_AIM: f64 = 3.0;
 
 /// `x^(1/8)` by three square roots (a power would cost several times more).
 fn eighth_root(x: f64) -> f64 {
@@ -364,7 +364,7 @@ fn may_near_between(samples: &[Events; STAGES]) -> bool {
 /// What a substep by the pair gave.
 pub(super) enum HighOrder {
     /// Accurate: the end, the factor by which the next substep may grow, and the length
-    /// of a substep from the same start whose estimate would be [`FIRST_AIM`].
+    /// of a substep from the same start whose estimate would be [`CARRIED_AIM`].
     Taken(Vector, f64, f64),
     /// Its error estimate is past the tolerance: the factor by which a substep that
     /// would be within it is shorter.
@@ -380,7 +380,8 @@ impl SlidingStep<'_> {
     }
 
     /// The length the pair's first substep of this step tries, from `asked`: at most the
-    /// first the last step could have taken.
+    /// first the last step could have taken (the pair's first substep wherever it falls
+    /// in the step: after a stick at its start, say).
     pub(super) fn high_order_first_length(&self, asked: f64) -> f64 {
         if self.high_order_taken.get() == 0 {
             asked.min(self.high_order_carried[0])
@@ -389,22 +390,32 @@ impl SlidingStep<'_> {
         }
     }
 
-    /// Notes a substep of `length` taken by the pair, which could have been `longest`,
-    /// and gives the factor by which the next may grow, from the pair's `growth`: after
-    /// the step's first, to at least the second the last step could have taken (the
-    /// caller keeps it within the rest of the step and the longest substep).
-    pub(super) fn high_order_substep_taken(&self, length: f64, growth: f64, longest: f64) -> f64 {
-        let (taken, mut found) = (self.high_order_taken.get(), self.high_order_found.get());
-        if let Some(found) = found.get_mut(taken) {
-            *found = longest;
-        }
-        self.high_order_found.set(found);
-        self.high_order_taken.set(taken + 1);
-        if taken == 0 {
+    /// The factor by which the substep after one of `length` that the pair took may grow,
+    /// from the pair's `growth`: after the step's first, to at least the second the last
+    /// step could have taken (the caller keeps it within the rest of the step and the
+    /// longest substep). Also keeps `aimed_length` until the substep is accepted
+    /// ([`SlidingStep::high_order_substep_accepted`]).
+    pub(super) fn high_order_substep_taken(&self, length: f64, growth: f64, aimed_length: f64) -> f64 {
+        self.high_order_pending.set(Some(aimed_length));
+        if self.high_order_taken.get() == 0 {
             growth.max(self.high_order_carried[1] / length)
         } else {
             growth
         }
+    }
+
+    /// The substep just taken is accepted whole: if the pair took it, it counts, and the
+    /// length it could have had is kept for the next step.
+    pub(super) fn high_order_substep_accepted(&self) {
+        let Some(aimed_length) = self.high_order_pending.take() else {
+            return;
+        };
+        let (taken, mut found) = (self.high_order_taken.get(), self.high_order_found.get());
+        if let Some(length) = found.get_mut(taken) {
+            *length = aimed_length;
+        }
+        self.high_order_found.set(found);
+        self.high_order_taken.set(taken + 1);
     }
 
     /// A substep of `length` from `z` with its `start` rates and event values by the
@@ -436,7 +447,7 @@ impl SlidingStep<'_> {
         let mut stages = [[0.0; E]; STAGES];
         stages[0] = std::array::from_fn(|c| start_rates[c]);
         let mut at = *z;
-        let mut made = EVALUATION_PLACE;
+        let mut made = UNEVALUATED;
         for s in 1..STAGES {
             let mut stage = from;
             for (j, rates) in stages[..s].iter().enumerate() {
@@ -486,19 +497,19 @@ impl SlidingStep<'_> {
         } else {
             0.0
         };
-        // Error ~ length^8 (as the blend falls): aim at a third of the tolerance next time,
-        // with a margin.
+        // Error ~ length^8 (as the blend falls): aim at a third of ESTIMATE_MARGIN next
+        // time, with a margin.
         let root = eighth_root(error.max(1e-10));
         let growth = 0.9 * eighth_root(ESTIMATE_MARGIN / 3.0) / root;
         if error <= ESTIMATE_MARGIN {
             let mut whole = *z;
             whole[..E].copy_from_slice(&end);
-            // The length at which the estimate would have been FIRST_AIM.
-            let longest = length * eighth_root(FIRST_AIM) / root;
+            // The length at which the estimate would have been CARRIED_AIM.
+            let aimed_length = length * eighth_root(CARRIED_AIM) / root;
             HighOrder::Taken(
                 whole,
                 growth.clamp(0.2, 4.0),
-                longest.clamp(0.2 * length, 4.0 * length),
+                aimed_length.clamp(0.2 * length, 4.0 * length),
             )
         } else {
             HighOrder::TooLong(growth.clamp(0.2, 0.9))

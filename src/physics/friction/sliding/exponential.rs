@@ -33,7 +33,7 @@
 
 use super::events::InteriorSearch;
 use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
-use super::{EVALUATION_PLACE, Events, Modes, SIZE, SlidingStep, Vector, by_entry_count};
+use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, by_entry_count};
 use crate::physics::stepper::phi::inverse_factorials;
 
 /// The most terms of one phi-series; a substep that needs more is too long for it.
@@ -250,7 +250,7 @@ impl SlidingStep<'_> {
         let stage_rates = |stage: usize, u: &[f64; E]| {
             let mut at = *z;
             at[..E].copy_from_slice(u);
-            let mut made = EVALUATION_PLACE;
+            let mut made = UNEVALUATED;
             self.rates_into(t + 0.5 * stage as f64 * length, &at, modes, &mut made);
             let (rates, events) = &made;
             search.sample(stage, 0.5 * length, events);

@@ -10,7 +10,7 @@ use super::dormand_prince::HighOrder;
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
-use super::{EVALUATION_PLACE, Events, Modes, SIZE, SlidingStep, Vector, retry_shorter};
+use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, retry_shorter};
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -187,9 +187,9 @@ impl SlidingStep<'_> {
                     if self.high_order_suited() {
                         let tried = self.high_order_first_length(asked);
                         match self.high_order_substep(t, z, start, tried, modes) {
-                            HighOrder::Taken(end, growth, longest) => {
+                            HighOrder::Taken(end, growth, aimed_length) => {
                                 self.high_order_misses.set(0);
-                                let growth = self.high_order_substep_taken(tried, growth, longest);
+                                let growth = self.high_order_substep_taken(tried, growth, aimed_length);
                                 *length = tried;
                                 return Ok(((end, growth, None, 0.5 * tried), End::Clear));
                             }
@@ -200,7 +200,8 @@ impl SlidingStep<'_> {
                                 if let Some(shorter) =
                                     retry_shorter(&self.high_order_misses, &self.high_order_declined, factor)
                                 {
-                                    return Err(shorter * tried / asked);
+                                    *length = tried;
+                                    return Err(shorter);
                                 }
                             }
                             HighOrder::NotSuited => {}
@@ -252,7 +253,7 @@ impl SlidingStep<'_> {
         let size = self.size();
         let mut search = InteriorSearch::new(start_events);
         let middle = self.advanced(z, start_rates, 0.5 * length);
-        let mut middle_made = EVALUATION_PLACE;
+        let mut middle_made = UNEVALUATED;
         self.rates_into(t + 0.5 * length, &middle, modes, &mut middle_made);
         let (middle_rates, middle_events) = &middle_made;
         search.sample(1, 0.5 * length, middle_events);

@@ -493,8 +493,11 @@ pub struct SlidingStep<'a> {
     high_order_carried: HighOrderSubsteps,
     /// The same as this step finds them ([`SlidingStep::high_order_substeps`]).
     high_order_found: Cell<HighOrderSubsteps>,
-    /// Substeps of this step taken by the pair.
+    /// Substeps of this step taken by the pair and accepted.
     high_order_taken: Cell<usize>,
+    /// The length a substep just taken by the pair could have had, until the step accepts
+    /// it ([`SlidingStep::high_order_substep_accepted`]).
+    high_order_pending: Cell<Option<f64>>,
     /// How fast the groups found sliding at the start move their forces, 1/s
     /// ([`GroupInput::sliding_rate`], the fastest; made by [`SlidingStep::prepare`]).
     start_sliding_rate: Cell<f64>,
@@ -548,6 +551,7 @@ impl<'a> SlidingStep<'a> {
             high_order_carried,
             high_order_found: Cell::new([f64::INFINITY; 2]),
             high_order_taken: Cell::new(0),
+            high_order_pending: Cell::new(None),
             start_sliding_rate: Cell::new(0.0),
         }
     }
@@ -611,14 +615,14 @@ impl<'a> SlidingStep<'a> {
     /// and the adjustment of [`SlidingStep::rates_adjusted`], the same values.
     #[inline]
     fn spring_rates(&self, t: f64, z: &Vector, modes: &Modes) -> (Vector, Events) {
-        let mut made = EVALUATION_PLACE;
+        let mut made = UNEVALUATED;
         self.spring_rates_into(t, z, modes, &mut made);
         made
     }
 
     /// [`SlidingStep::spring_rates`] written into `rates` and `events` (every entry).
     #[inline(never)]
-    fn spring_rates_into(&self, t: f64, z: &Vector, modes: &Modes, (rates, events): &mut (Vector, Events)) {
+    fn spring_rates_into(&self, t: f64, z: &Vector, modes: &Modes, (rates, events): &mut Evaluation) {
         let layout = &self.layout;
         let x = layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
@@ -641,9 +645,10 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// [`SlidingStep::rates`] written into `made` (every entry): where an evaluation's
-    /// place is the caller's, its 200 bytes are not copied there.
+    /// place is the caller's, a tire of spring groups' 200 bytes are not copied there
+    /// (a damped one's still are).
     #[inline]
-    fn rates_into(&self, t: f64, z: &Vector, modes: &Modes, made: &mut (Vector, Events)) {
+    fn rates_into(&self, t: f64, z: &Vector, modes: &Modes, made: &mut Evaluation) {
         if self.friction.damped() {
             *made = self.rates_adjusted(t, z, modes, |_, _, _, _| {});
         } else {
@@ -772,7 +777,7 @@ impl<'a> SlidingStep<'a> {
         let mut length = if self.stiff.get() { h } else { h.min(0.5 * longest) };
         let mut changes: Changes = [[0; MAX_BRANCHES]; Group::COUNT];
         // The rates and event values at each substep's start and end, made in place.
-        let (mut start_made, mut end_made) = (EVALUATION_PLACE, EVALUATION_PLACE);
+        let (mut start_evaluation, mut end_evaluation) = (UNEVALUATED, UNEVALUATED);
         // The explicit method crawls where a group sliding on its ellipse turns its force
         // far faster than anything it knows of (a stiff tire at a light load): past the
         // substeps the step's length needs, and a margin for events (never more than
@@ -798,8 +803,10 @@ impl<'a> SlidingStep<'a> {
             if self.exponential_suited() {
                 length = length.min(0.25 * longest);
             }
-            self.rates_into(t, &z, &modes, &mut start_made);
-            let (start_rates, start_events) = (&start_made.0, &start_made.1);
+            // A substep the pair took but the step did not accept whole does not count.
+            self.high_order_pending.set(None);
+            self.rates_into(t, &z, &modes, &mut start_evaluation);
+            let (start_rates, start_events) = (&start_evaluation.0, &start_evaluation.1);
             let start = (start_rates, start_events);
             // A group the motion brings to its event within the substep: the substep ends
             // where its crossing is predicted, so that it locates the crossing itself.
@@ -833,6 +840,7 @@ impl<'a> SlidingStep<'a> {
             // A substep to the step's end whose end was sampled clear of every event: the
             // end's evaluation would only look for events there.
             if matches!(end, End::Clear) && t + length >= h {
+                self.high_order_substep_accepted();
                 z = z_end;
                 t = h;
                 self.hold_on_limits(&mut z, &modes);
@@ -862,8 +870,8 @@ impl<'a> SlidingStep<'a> {
                 self.switch_mode(&mut z, &mut modes, &mut changes, (g, i));
                 continue;
             }
-            self.rates_into(t + length, &z_end, &modes, &mut end_made);
-            let (end_rates, end_events) = (&end_made.0, &mut end_made.1);
+            self.rates_into(t + length, &z_end, &modes, &mut end_evaluation);
+            let (end_rates, end_events) = (&end_evaluation.0, &mut end_evaluation.1);
             // A limit touched and left again inside the substep: end the substep at the
             // sample past the tolerance, if an accurate solution confirms it there.
             if first_past_tolerance(end_events).is_none()
@@ -930,6 +938,7 @@ impl<'a> SlidingStep<'a> {
             };
             match first {
                 None => {
+                    self.high_order_substep_accepted();
                     z = z_end;
                     t += length;
                     changes = [[0; MAX_BRANCHES]; Group::COUNT];
@@ -1028,14 +1037,17 @@ fn add_damper_force_change(
 
 /// How long the eighth-order pair's first and second substeps of a step could have been,
 /// s: each the length at which the pair's estimate from the same start would have been
-/// its aim for them ([`dormand_prince`]); infinite where the step took no such substep.
+/// its aim for them (3 tolerances); infinite where the step took no such substep.
 /// The next step starts its first two substeps by the pair with them: a combined slide's
 /// error is largest where its force turns, at a step's start, so its first substep is
 /// its shortest, and the second may be longer than the first's error would allow.
 pub type HighOrderSubsteps = [f64; 2];
 
-/// A place for an evaluation's rates and event values ([`SlidingStep::rates_into`]).
-const EVALUATION_PLACE: (Vector, Events) = ([0.0; SIZE], [[0.0; MAX_BRANCHES]; Group::COUNT]);
+/// An evaluation's rates and event values.
+type Evaluation = (Vector, Events);
+
+/// A place for an [`Evaluation`], before one is written there ([`SlidingStep::rates_into`]).
+const UNEVALUATED: Evaluation = ([0.0; SIZE], [[0.0; MAX_BRANCHES]; Group::COUNT]);
 
 /// What deciding the modes at a step's start found.
 struct Decided {
@@ -1048,7 +1060,7 @@ struct Decided {
 
 /// What preparing a step decided where it moved no deflection: each group's mode, and
 /// how fast the sliding ones move their forces. The same states, inputs, operating point
-/// and limits decide the same again ([`SlidingStep::prepare_as`]).
+/// and limits decide the same again ([`SlidingStep::prepare_from`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Preparation {
     sliding: Modes,
@@ -1066,7 +1078,7 @@ impl<'a> SlidingStep<'a> {
     /// [`SlidingStep::prepare`] as `preparation` found it at the same states, inputs,
     /// operating point and limits, where it moved nothing: the same modes, not decided
     /// again.
-    pub fn prepare_as(&self, sliders: &mut SliderState, preparation: &Preparation) {
+    pub fn prepare_from(&self, sliders: &mut SliderState, preparation: &Preparation) {
         sliders.sliding = preparation.sliding;
         self.start_sliding_rate.set(preparation.sliding_rate);
     }
@@ -1394,7 +1406,7 @@ mod tests {
                 let sliding_rate = step.start_sliding_rate.get();
                 step.start_sliding_rate.set(f64::NAN);
                 let mut adopted = SliderState::AT_REST;
-                step.prepare_as(&mut adopted, &preparation);
+                step.prepare_from(&mut adopted, &preparation);
                 prop_assert_eq!(adopted, sliders);
                 prop_assert_eq!(step.start_sliding_rate.get().to_bits(), sliding_rate.to_bits());
             }
