@@ -257,6 +257,16 @@ struct Flow {
     cosine: f64,
 }
 
+/// A damped group's event value at the `utilisation` of its trial force: sticking, how
+/// far the trial is out of the ellipse; sliding, how far it is in.
+fn damped_event(utilisation: f64, sliding: bool) -> f64 {
+    if sliding {
+        1.0 - utilisation
+    } else {
+        utilisation - 1.0
+    }
+}
+
 /// The cosine between a group's normal `n = F / L^2` and its sticking force rate `K g`,
 /// from `n.K g`, `|n|^2` and `|K g|^2`: positive while sticking would push the force out
 /// of the ellipse, zero without motion.
@@ -445,12 +455,7 @@ impl<'a> GroupInput<'a> {
         if !self.damped() {
             return self.evaluate_springs(sliding).event;
         }
-        let utilisation = self.utilisation(&self.sticking_force());
-        if sliding {
-            1.0 - utilisation
-        } else {
-            utilisation - 1.0
-        }
+        damped_event(self.utilisation(&self.sticking_force()), sliding)
     }
 
     /// [`RateSlopes`] of the rates [`GroupInput::evaluate`] gives in the same mode, in
@@ -642,7 +647,7 @@ impl<'a> GroupInput<'a> {
         GroupOutput {
             rate: self.sticking_rate,
             force: trial,
-            event: utilisation - 1.0,
+            event: damped_event(utilisation, false),
         }
     }
 
@@ -656,7 +661,7 @@ impl<'a> GroupInput<'a> {
         GroupOutput {
             rate,
             force,
-            event: 1.0 - utilisation,
+            event: damped_event(utilisation, true),
         }
     }
 

@@ -648,9 +648,9 @@ impl Tire {
                         } else {
                             None
                         };
-                        let mut high_order_substeps = friction.high_order_substeps();
-                        let (end, sliders) = match separable {
-                            Some(end) => end,
+                        // The whole-system path's substeps by the pair, for the next step.
+                        let (end, sliders, high_order_substeps) = match separable {
+                            Some((end, sliders)) => (end, sliders, None),
                             None => {
                                 let mut sliders = *friction.state();
                                 let mut end = self.states;
@@ -681,8 +681,7 @@ impl Tire {
                                         shaped_outputs(&sliding_step, &end, &sliders, u0);
                                     shaped = Some(outputs);
                                 }
-                                high_order_substeps = sliding_step.high_order_substeps();
-                                (end, sliders)
+                                (end, sliders, Some(sliding_step.high_order_substeps()))
                             }
                         };
                         if !finite(end.as_slice()) {
@@ -690,7 +689,9 @@ impl Tire {
                         }
                         next_states = end;
                         friction.set_state(sliders);
-                        friction.set_high_order_substeps(high_order_substeps);
+                        if let Some(lengths) = high_order_substeps {
+                            friction.set_high_order_substeps(lengths);
+                        }
                         sliding = true;
                     }
                 }

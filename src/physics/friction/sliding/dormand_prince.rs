@@ -383,7 +383,7 @@ impl SlidingStep<'_> {
     /// first the last step could have taken (the pair's first substep wherever it falls
     /// in the step: after a stick at its start, say).
     pub(super) fn high_order_first_length(&self, asked: f64) -> f64 {
-        if self.high_order_taken.get() == 0 {
+        if self.high_order_none_accepted() {
             asked.min(self.high_order_carried[0])
         } else {
             asked
@@ -397,7 +397,7 @@ impl SlidingStep<'_> {
     /// ([`SlidingStep::high_order_substep_accepted`]).
     pub(super) fn high_order_substep_taken(&self, length: f64, growth: f64, aimed_length: f64) -> f64 {
         self.high_order_pending.set(Some(aimed_length));
-        if self.high_order_taken.get() == 0 {
+        if self.high_order_none_accepted() {
             growth.max(self.high_order_carried[1] / length)
         } else {
             growth
@@ -410,12 +410,17 @@ impl SlidingStep<'_> {
         let Some(aimed_length) = self.high_order_pending.take() else {
             return;
         };
-        let (taken, mut found) = (self.high_order_taken.get(), self.high_order_found.get());
-        if let Some(length) = found.get_mut(taken) {
+        // The first of the lengths not yet found (each is finite once found).
+        let mut found = self.high_order_found.get();
+        if let Some(length) = found.iter_mut().find(|length| length.is_infinite()) {
             *length = aimed_length;
         }
         self.high_order_found.set(found);
-        self.high_order_taken.set(taken + 1);
+    }
+
+    /// Whether no substep of this step by the pair has been accepted yet.
+    fn high_order_none_accepted(&self) -> bool {
+        self.high_order_found.get()[0].is_infinite()
     }
 
     /// A substep of `length` from `z` with its `start` rates and event values by the
@@ -521,10 +526,10 @@ impl SlidingStep<'_> {
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{ends_where_extrapolated, with_settled_slide};
+    use super::super::{longest_taken_ends_where_extrapolated, slide_parameters, with_settled_slide};
     use super::HighOrder;
     use crate::physics::friction::FrictionLaw;
-    use crate::physics::{ModelKind, Parameter, Parameters};
+    use crate::physics::{ModelKind, Parameter};
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(100))]
@@ -543,28 +548,16 @@ mod tests {
             inputs in prop::array::uniform3(-1.0..1.0f64),
             states in prop::array::uniform4(-1.5..1.5f64),
         ) {
-            let mut p = Parameters::default().with_model(model).with_friction(law);
-            p.set(Parameter::LateralFriction, 0.01).unwrap();
-            if combined {
-                p.set(Parameter::LongitudinalFriction, 0.01).unwrap();
-            }
+            let p = slide_parameters(model, law, combined);
             let load = load_ratio * p.get(Parameter::NominalLoad);
             with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
-                let (z, modes) = (step.layout.pack(&x, &sliders), sliders.sliding);
-                let (rates, events) = step.rates(0.0, &z, &modes);
-                let taken = [4e-3, 1e-3, 1e-4, 1e-5].into_iter().find_map(|length| {
-                    match step.high_order_substep(0.0, &z, (&rates, &events), length, &modes) {
-                        HighOrder::Taken(end, _, _) => Some((length, end)),
+                let label = format!("{model:?} {law:?} combined {combined}");
+                longest_taken_ends_where_extrapolated(step, (&x, &sliders), travel, &label, |z, start, length, modes| {
+                    match step.high_order_substep(0.0, z, start, length, modes) {
+                        HighOrder::Taken(end, _, _) => Some(end),
                         _ => None,
                     }
-                });
-                // Near a limit: the extrapolation takes it (not this test's).
-                prop_assume!(taken.is_some());
-                let (length, high_order) = taken.unwrap();
-                prop_assume!(length <= step.longest_substep());
-                let label = format!("{model:?} {law:?} combined {combined}");
-                ends_where_extrapolated(step, (&z, &modes), (length, &high_order), travel, &label)?;
-                Ok(())
+                })
             })?;
         }
     }
