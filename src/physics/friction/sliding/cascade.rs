@@ -65,12 +65,26 @@ struct Cascade {
     driver_state: usize,
 }
 
-/// The drivers' element state over the step: `U0 + R . q(t)`, with each mode's rate `mu`.
+/// The drivers' element state over the step: `U0 + R . q(t)`, with each mode's rate `mu`,
+/// and the `q`s where the step of `step` seconds ends.
 #[derive(Clone, Copy, Debug, Default)]
 struct DriverSum {
     start: f64,
     by_mode: [f64; 2],
     rate: [f64; 2],
+    step: f64,
+    end: [f64; 2],
+}
+
+impl DriverSum {
+    /// The `q`s at `t` into the step: made with the drivers where the step ends.
+    fn q(&self, t: f64) -> [f64; 2] {
+        if t == self.step {
+            self.end
+        } else {
+            self.rate.map(|mu| q_at(mu, t))
+        }
+    }
 }
 
 /// Whether a group's event value keeps it clear of its event (as a sample of the whole
@@ -107,6 +121,7 @@ impl SlidingStep<'_> {
         // Drivers, in closed form; their weighted sum's terms by mode.
         let mut sum = DriverSum {
             start: states[cascade.driver_state],
+            step: h,
             ..DriverSum::default()
         };
         // By mode, `q(h)`: the same for every branch in that mode.
@@ -146,6 +161,8 @@ impl SlidingStep<'_> {
                 return false;
             }
         }
+        // A mode no driver is in has `mu = 0`: `q(h) = h`.
+        sum.end = q_end.map(|q| q.unwrap_or(h));
         let Some(driven) = self.driven_step(&cascade, (&z, &modes), &sum, (h, largest, stiff)) else {
             return false;
         };
@@ -307,7 +324,7 @@ impl SlidingStep<'_> {
             v[..DRIVEN].copy_from_slice(d);
             v
         };
-        let q_end = groups.sum.rate.map(|mu| q_at(mu, t + length));
+        let q_end = groups.sum.q(t + length);
         let row = |n: usize| -> Option<Row> {
             let s = length / n as f64;
             // Each group's `(I - s J)^-1`, for every Euler step of the row.
@@ -511,8 +528,8 @@ impl<'s> DrivenGroups<'s> {
 
     /// The `q`s of `w` at `t` into the step, in closed form.
     fn set_q(&self, w: &mut Driven, t: f64) {
-        for (mode, &q) in Q.iter().enumerate() {
-            w[q] = q_at(self.sum.rate[mode], t);
+        for (place, q) in Q.into_iter().zip(self.sum.q(t)) {
+            w[place] = q;
         }
     }
 }

@@ -308,7 +308,7 @@ impl SlidingStep<'_> {
 /// tolerance.
 pub(super) fn resize(error_ratio: f64) -> (bool, f64) {
     let error = error_ratio / ESTIMATE_MARGIN;
-    let factor = 0.9 * (3.0 * error).max(1e-10).powf(-0.25);
+    let factor = 0.9 / (3.0 * error).max(1e-10).sqrt().sqrt();
     if error <= 1.0 {
         (true, factor.clamp(0.2, 4.0))
     } else {
