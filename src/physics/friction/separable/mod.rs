@@ -297,7 +297,7 @@ fn sticking_piece(branch: &EllipseBranch, from: &BranchAt, h: f64) -> Sticking {
     let left = h - from.t;
     let motion = StickingMotion::new(branch, from.b);
     match motion.first_contact(left) {
-        Contact::None => Sticking::Throughout(motion.at(left).deflection),
+        Contact::None(end) => Sticking::Throughout(end.deflection),
         Contact::Undecided => Sticking::Undecided,
         Contact::At(at) => {
             let b = scaled(at.deflection, branch.utilisation(at.deflection));

@@ -27,7 +27,8 @@ pub struct Sample {
 
 /// Whether a sticking branch reaches its ellipse within a time.
 pub enum Contact {
-    None,
+    /// It does not: the branch where the time ends.
+    None(Sample),
     /// Where it does: just past the ellipse, by half the event tolerance.
     At(Sample),
     /// A graze too fine to decide within [`MAX_PIECES`] pieces.
@@ -59,6 +60,16 @@ impl<'a> StickingMotion<'a> {
         sample
     }
 
+    /// The branch where it starts, as [`StickingMotion::at`] gives it at `t = 0`.
+    fn at_start(&self) -> Sample {
+        Sample {
+            t: 0.0,
+            deflection: self.start,
+            rate: self.start_rate,
+            excess: self.branch.utilisation(self.start) - 1.0,
+        }
+    }
+
     /// The rate of the utilisation, `2 sum b b' / P^2`.
     fn utilisation_rate(&self, at: &Sample) -> f64 {
         let weight = &self.branch.inverse_travel_squared;
@@ -72,14 +83,14 @@ impl<'a> StickingMotion<'a> {
     /// as long), one that may reach the limit is halved, until one ends outside with the
     /// utilisation rising throughout, where it has one root.
     pub fn first_contact(&self, length: f64) -> Contact {
-        let mut left = self.at(0.0);
+        let mut left = self.at_start();
         let mut right = self.at(length);
         for _ in 0..MAX_PIECES {
             let (largest, slowest) = self.piece_bound(&left, &right);
             let width = right.t - left.t;
             if largest <= EVENT_TOLERANCE {
                 if right.t >= length {
-                    return Contact::None;
+                    return Contact::None(right);
                 }
                 left = right;
                 right = self.at((left.t + 2.0 * width).min(length));
