@@ -24,6 +24,102 @@ impl InverseLengthFactors {
     };
 }
 
+/// Where the tire operates: the quantities its system matrices depend on (SPEC 4, 4b).
+///
+/// Speed and load enter every model the same way: the relaxation lengths scale with the
+/// load, lateral ones by `Calpha(Fz)/Calpha`, longitudinal ones by `Fz/Fz0` (the
+/// stiffnesses stay), so a relaxation rate `rho/(sigma factor)` is a nominal length
+/// divided into `rho/factor`. With these five coordinates every model's matrices are
+/// affine (no product of two, no division by any).
+///
+/// Stored as the array of coordinates that [`AffineSystem::evaluate`] indexes, so that a
+/// point just made is read one coordinate at a time, never copied (a wide load of values
+/// just stored one by one waits for them to reach the cache).
+///
+/// [`AffineSystem::evaluate`]: crate::physics::stepper::AffineSystem::evaluate
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OperatingPoint {
+    /// In the order of the accessors below; padded to a power of two so that a masked
+    /// index needs no bounds check.
+    coordinates: [f64; 8],
+}
+
+impl OperatingPoint {
+    pub const COORDINATES: usize = 5;
+    /// Index of `vx` among the coordinates.
+    pub const VX: usize = 0;
+
+    /// The operating point at speed `vx` with the relaxation lengths stretched by the load
+    /// (`inverse` = 1 / length factors).
+    pub fn new(vx: f64, inverse: InverseLengthFactors) -> Self {
+        let rho = vx.abs();
+        Self::from_coordinates([
+            vx,
+            rho * inverse.lateral,
+            rho * inverse.longitudinal,
+            inverse.lateral,
+            inverse.longitudinal,
+        ])
+    }
+
+    /// Longitudinal speed `vx`, m/s.
+    pub const fn vx(&self) -> f64 {
+        self.coordinates[0]
+    }
+
+    /// `rho / lateral length factor`, m/s: divided by a nominal lateral relaxation length
+    /// it is that lag's rate.
+    pub const fn lateral_relaxation_speed(&self) -> f64 {
+        self.coordinates[1]
+    }
+
+    /// `rho / longitudinal length factor`, m/s.
+    pub const fn longitudinal_relaxation_speed(&self) -> f64 {
+        self.coordinates[2]
+    }
+
+    /// `1 / lateral length factor`: turns a nominal lateral length into the loaded one's
+    /// inverse (for alphaT).
+    pub const fn inverse_lateral_factor(&self) -> f64 {
+        self.coordinates[3]
+    }
+
+    /// `1 / longitudinal length factor` (for kappaT).
+    pub const fn inverse_longitudinal_factor(&self) -> f64 {
+        self.coordinates[4]
+    }
+
+    pub fn coordinates(&self) -> [f64; Self::COORDINATES] {
+        std::array::from_fn(|k| self.coordinates[k])
+    }
+
+    pub const fn from_coordinates(c: [f64; Self::COORDINATES]) -> Self {
+        Self {
+            coordinates: [c[0], c[1], c[2], c[3], c[4], 0.0, 0.0, 0.0],
+        }
+    }
+
+    /// Coordinate `k & 7` (zero past the fifth).
+    #[inline]
+    pub(crate) fn coordinate(&self, k: u8) -> f64 {
+        self.coordinates[k as usize & 7]
+    }
+
+    /// The point whose coordinate `coordinate` is 1 and the others zero.
+    pub(crate) fn unit(coordinate: usize) -> Self {
+        let mut c = [0.0; Self::COORDINATES];
+        c[coordinate] = 1.0;
+        Self::from_coordinates(c)
+    }
+
+    /// Whether both are the same point to the bit, for caches. (Compared coordinate by
+    /// coordinate: an array comparison would become a memcmp call on the hot path.)
+    pub fn same_as(&self, other: &OperatingPoint) -> bool {
+        let (a, b) = (&self.coordinates, &other.coordinates);
+        (0..Self::COORDINATES).all(|k| a[k].to_bits() == b[k].to_bits())
+    }
+}
+
 /// The load law of one parameter set, with its constants worked out once: a load costs
 /// one division.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -21,9 +21,7 @@ pub mod state_space;
 pub mod stepper;
 pub mod tire;
 
-pub use friction::FrictionLaw;
-pub use models::ModelKind;
-pub use parameters::{Parameter, ParameterError, Parameters};
+pub use parameters::{FrictionLaw, ModelKind, Parameter, ParameterError, Parameters};
 pub use signals::{DrivingInput, Input, Output, OutputVector};
 pub use state_space::{StateSpace, StateVector};
 pub use stepper::StepMap;

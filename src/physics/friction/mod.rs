@@ -49,11 +49,12 @@ mod vocabulary;
 pub use sliding::{Events, HighOrderSubsteps, NO_EVENT};
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
-    ContactElement, ContactElements, Direction, EVENT_TOLERANCE, FrictionLaw, Group, InverseLimits, Limits,
-    MAX_BRANCHES, SliderState,
+    ContactElement, ContactElements, Direction, EVENT_TOLERANCE, Group, InverseLimits, Limits, MAX_BRANCHES,
+    SliderState,
 };
 
 use super::brush::Branch;
+use super::parameters::FrictionLaw;
 use super::state_space::{MAX_STATES, StateSpace, StateVector};
 use sticking::{PresentElement, StickingCheck};
 

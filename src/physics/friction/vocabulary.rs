@@ -2,19 +2,8 @@
 //! contact elements, their limits at a load, and the state of their branches.
 
 use crate::physics::brush::{BRUSH_BRANCHES, Branch};
-use crate::physics::parameters::{Parameter, Parameters};
+use crate::physics::parameters::{FrictionLaw, Parameter, Parameters};
 use crate::physics::signals::Output;
-
-/// The friction law; the values are those of the FMI type `TireFriction`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum FrictionLaw {
-    /// No limit: the linear model (with load dependence).
-    Unlimited = 1,
-    /// One slider per element: linear up to the limit, flat beyond.
-    Coulomb = 2,
-    /// Four parallel branches per element, fitted to the brush curve.
-    Brush = 3,
-}
 
 /// The single branch of the Coulomb law.
 const COULOMB_BRANCH: [Branch; 1] = [Branch {
@@ -23,20 +12,6 @@ const COULOMB_BRANCH: [Branch; 1] = [Branch {
 }];
 
 impl FrictionLaw {
-    pub const ALL: [FrictionLaw; 3] = [FrictionLaw::Unlimited, FrictionLaw::Coulomb, FrictionLaw::Brush];
-
-    pub fn from_value(value: i64) -> Option<Self> {
-        Self::ALL.into_iter().find(|law| *law as i64 == value)
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            FrictionLaw::Unlimited => "Unlimited",
-            FrictionLaw::Coulomb => "Coulomb",
-            FrictionLaw::Brush => "Brush",
-        }
-    }
-
     /// The branches each element is split into (none without a limit).
     pub fn branches(self) -> &'static [Branch] {
         match self {

@@ -8,42 +8,12 @@ mod rlt;
 mod second_order;
 
 use super::friction::{ContactElement, ContactElements};
-use super::parameters::{Parameter, Parameters};
+use super::load::OperatingPoint;
+use super::parameters::{ModelKind, Parameter, Parameters};
 use super::signals::{DrivingInput, Output};
 use super::state_space::{StateSpace, StateVector, SystemBuilder};
-use super::stepper::OperatingPoint;
-
-/// Which tire-lag model the tire uses; the values are those of the FMI enumeration
-/// `TireLagModel`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ModelKind {
-    Rlt = 1,
-    Ddt = 2,
-    SecondOrder = 3,
-    RingBody = 4,
-}
 
 impl ModelKind {
-    pub const ALL: [ModelKind; 4] = [
-        ModelKind::Rlt,
-        ModelKind::Ddt,
-        ModelKind::SecondOrder,
-        ModelKind::RingBody,
-    ];
-
-    pub fn from_value(value: i64) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| *m as i64 == value)
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            ModelKind::Rlt => "RLT",
-            ModelKind::Ddt => "DDT",
-            ModelKind::SecondOrder => "SecondOrder",
-            ModelKind::RingBody => "RingBody",
-        }
-    }
-
     /// The model's equations.
     pub fn equations(self) -> &'static dyn TireLagModel {
         match self {

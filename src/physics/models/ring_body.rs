@@ -7,10 +7,10 @@
 
 use super::{ContactMass, TireLagModel, write_common_outputs};
 use crate::physics::friction::ContactElements;
+use crate::physics::load::OperatingPoint;
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
-use crate::physics::stepper::OperatingPoint;
 
 pub struct RingBody;
 

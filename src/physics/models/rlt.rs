@@ -5,10 +5,10 @@
 
 use super::{Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
 use crate::physics::friction::ContactElements;
+use crate::physics::load::OperatingPoint;
 use crate::physics::parameters::Parameters;
 use crate::physics::signals::{DrivingInput, Output};
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
-use crate::physics::stepper::OperatingPoint;
 
 pub struct Rlt;
 

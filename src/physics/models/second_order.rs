@@ -7,10 +7,10 @@
 
 use super::{ContactMass, Relaxation, TireLagModel, write_common_outputs, write_rolling_moment_from_fx};
 use crate::physics::friction::ContactElements;
+use crate::physics::load::OperatingPoint;
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::Output;
 use crate::physics::state_space::{StateSpace, StateVector, SystemBuilder};
-use crate::physics::stepper::OperatingPoint;
 
 pub struct SecondOrder;
 

@@ -31,9 +31,10 @@ pub mod phi;
 
 use nalgebra::SMatrix;
 
+use super::load::OperatingPoint;
 use super::signals::DrivingInput;
 use super::state_space::{DrivingVector, InputMatrix, MAX_STATES, StateMatrix, StateSpace, StateVector};
-pub use affine::{AffineSystem, OperatingPoint};
+pub use affine::AffineSystem;
 pub use blocks::{Block, Blocks};
 
 /// What a step map is made for: the bits of vx, Fz (at mid-step) and the step size. For

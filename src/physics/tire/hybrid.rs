@@ -21,10 +21,10 @@ use crate::physics::friction::{
     Direction, EVENT_TOLERANCE, Events, Friction, Group, InverseLimits, Limits, MAX_BRANCHES, NO_EVENT,
     SliderState,
 };
+use crate::physics::load::OperatingPoint;
 use crate::physics::parameters::{Parameter, Parameters};
 use crate::physics::signals::{Input, OutputVector};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateVector};
-use crate::physics::stepper::OperatingPoint;
 
 /// Entries of the continuous state vector.
 pub const CONTINUOUS_STATES: usize = MAX_STATES + Direction::COUNT * MAX_BRANCHES;

@@ -8,12 +8,13 @@ use std::fmt;
 use super::friction::separable::SeparableStep;
 use super::friction::sliding::{Preparation, SlidingStep};
 use super::friction::{Friction, HighOrderSubsteps, Limits, LinearStep, SliderState};
+use super::load::OperatingPoint;
 use super::load::{InverseLengthFactors, LoadLaw};
 use super::models::TireLagModel;
 use super::parameters::{Parameter, ParameterError, Parameters};
 use super::signals::{Input, OutputVector};
 use super::state_space::{DrivingVector, StateSpace, StateVector};
-use super::stepper::{AffineSystem, ContactSystem, OperatingPoint, StepKey};
+use super::stepper::{AffineSystem, ContactSystem, StepKey};
 
 /// How fast the deflections relax while the wheel is off the ground, s: a free carcass
 /// springs back within a few hundredths of a second.

@@ -3,10 +3,11 @@
 //! Names follow SPEC section 3 (`Calpha`, `sigmaY`, ...): they are the parameters' public
 //! names, used in error messages so that a user can find the value they set.
 
+mod selectors;
+
 use std::fmt;
 
-use super::friction::FrictionLaw;
-use super::models::ModelKind;
+pub use selectors::{FrictionLaw, ModelKind};
 
 /// One real-valued tire parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
