@@ -29,17 +29,23 @@
 //! integration goes on. A spring group that slides is kept on its ellipse to
 //! rounding after every substep, so the ellipse is never exceeded.
 //!
-//! The result is a function of the states, inputs and step size only (nothing is carried
-//! from one step to the next), so a restored FMU state continues bit-identically.
+//! The result is a function of the states, inputs and step size, and of how long the
+//! last step's first two substeps by the eighth-order pair could have been
+//! ([`HighOrderSubsteps`], carried in the friction state and the FMU state), so a
+//! restored FMU state continues bit-identically.
 //!
 //! Where the groups form a cascade (DDT: the yaw branches drive the lateral ones and
 //! nothing drives them) and none changes mode, [`cascade`] takes the step first: the
 //! drivers in closed form, the driven groups by an integration of their own
 //! (exponential, or linearly implicit for a stiff slide).
 //!
-//! Here: the coupled system and the loop over pieces; [`extrapolation`]: one substep,
-//! and the extrapolated one; [`exponential`]: the exponential one; [`dormand_prince`]:
-//! the eighth-order one; [`implicit`]: one substep of a stiff piece; [`events`]: where
+//! Here: the coupled system's rates and event values, and the loop over pieces;
+//! [`layout`]: where each state and branch deflection sits in the coupled vector, and
+//! the groups' slots; [`modes`]: which groups stick and which slide (at a step's start,
+//! or an importer's event), the damped forces' limits in the outputs, and the rates in
+//! the modes that Model Exchange exposes; [`extrapolation`]: one substep, and the
+//! extrapolated one; [`exponential`]: the exponential one; [`dormand_prince`]: the
+//! eighth-order one; [`implicit`]: one substep of a stiff piece; [`events`]: where
 //! within a substep a group changes mode; [`cascade`]: the cascade's step.
 
 // Groups and branches index several arrays together (modes, events, offsets).
@@ -50,14 +56,18 @@ mod events;
 mod exponential;
 mod extrapolation;
 mod implicit;
+mod layout;
+mod modes;
+
+pub use layout::SlidingSlots;
+use layout::{Layout, Slot};
+pub use modes::Preparation;
 
 use std::cell::Cell;
 
-use super::group::{
-    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
-};
+use super::group::{GroupInput, GroupOutput, MAX_TOGETHER, evaluate_together};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
-use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector, by_state_count};
+use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
 use extrapolation::{End, SHORTER, Toward};
 
@@ -136,328 +146,6 @@ type Changes = [[u32; MAX_BRANCHES]; Group::COUNT];
 pub type Events = [[f64; MAX_BRANCHES]; Group::COUNT];
 /// The event value of a group or branch that does not exist: it never crosses.
 pub const NO_EVENT: f64 = f64::NEG_INFINITY;
-
-/// Where each quantity of a step sits in the coupled vector: first the model's states
-/// that carry no contact element (each with its own equation), then every branch
-/// deflection of each element. An element's own state is the weighted sum of its branches,
-/// so it has no entry: the vector is as short as the model and law make it (two entries
-/// for RLT with Coulomb, up to twelve), which is what the substeps, the error control and
-/// the stiff method's Jacobian cost in proportion to.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Layout {
-    /// The model state of each of the first `free_count` entries.
-    free: [usize; MAX_STATES],
-    free_count: usize,
-    /// By present element.
-    elements: [ElementEntries; Direction::COUNT],
-    element_count: usize,
-    /// Branches per element, and every branch's `w_i`.
-    branches: usize,
-    weights: [f64; MAX_BRANCHES],
-    /// Entries in use.
-    size: usize,
-    /// By model state, the entries it is the weighted sum of ([`Layout::model_states`]).
-    sums: [StateSum; MAX_STATES],
-    /// The model's states (zero: not laid out yet).
-    states: usize,
-}
-
-/// A model state as a sum of entries of the coupled vector: from `first` on, with
-/// `weights` (1 and zeros for a free state, each branch's `w_i` for an element's state,
-/// all zero for a state past the model's). Every sum has [`MAX_BRANCHES`] terms, those of
-/// weight zero adding nothing, so that two states are summed side by side.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct StateSum {
-    first: usize,
-    weights: [f64; MAX_BRANCHES],
-}
-
-/// Where a present element's branches are: its direction, its model state and its first
-/// branch's entry (the others follow).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct ElementEntries {
-    direction: usize,
-    state: usize,
-    first: usize,
-}
-
-impl Layout {
-    fn new(friction: &Friction, states: usize) -> Self {
-        let mut layout = Layout {
-            branches: friction.branches.len(),
-            states,
-            ..Layout::default()
-        };
-        for (i, branch) in friction.branches.iter().enumerate() {
-            layout.weights[i] = branch.stiffness_fraction;
-        }
-        let carries_element = |k: usize| friction.elements.iter().flatten().any(|e| e.state == k);
-        for k in (0..states).filter(|&k| !carries_element(k)) {
-            layout.free[layout.free_count] = k;
-            layout.free_count += 1;
-        }
-        let mut next = layout.free_count;
-        for (d, element) in friction.elements.iter().enumerate() {
-            if let Some(element) = element {
-                layout.elements[layout.element_count] = ElementEntries {
-                    direction: d,
-                    state: element.state,
-                    first: next,
-                };
-                layout.element_count += 1;
-                next += layout.branches;
-            }
-        }
-        layout.size = next;
-        // A sum of MAX_BRANCHES terms from any first entry stays within the vector.
-        debug_assert!(next + MAX_BRANCHES <= SIZE + 1);
-        for j in 0..layout.free_count {
-            let mut weights = [0.0; MAX_BRANCHES];
-            weights[0] = 1.0;
-            layout.sums[layout.free[j]] = StateSum { first: j, weights };
-        }
-        for e in &layout.elements[..layout.element_count] {
-            layout.sums[e.state] = StateSum {
-                first: e.first,
-                weights: layout.weights,
-            };
-        }
-        layout
-    }
-
-    fn elements(&self) -> &[ElementEntries] {
-        &self.elements[..self.element_count]
-    }
-
-    /// The entry of branch `i` of direction `d`'s element, if the model has one.
-    fn branch_entry(&self, d: usize, i: usize) -> Option<usize> {
-        self.elements()
-            .iter()
-            .find(|e| e.direction == d)
-            .map(|e| e.first + i)
-    }
-
-    /// The model's states (or rates) of a coupled vector (or its rates): the free entries,
-    /// and each element's state `sum w_i b_i`. Two states at a time, written together:
-    /// the product with the state matrix reads them two at a time, at once.
-    #[inline]
-    fn model_states(&self, z: &Vector) -> StateVector {
-        by_state_count!(self.states, N => self.model_states_for::<N>(z))
-    }
-
-    /// [`Layout::model_states`] of a model of `N` states: the pairs that hold them, the
-    /// states past them left zero.
-    #[inline]
-    fn model_states_for<const N: usize>(&self, z: &Vector) -> StateVector {
-        let mut x = StateVector::zeros();
-        let sum = |s: &StateSum| {
-            // One bounds check for the terms, not one a term.
-            let terms = &z[s.first..s.first + MAX_BRANCHES];
-            let mut sum = 0.0;
-            for i in 0..MAX_BRANCHES {
-                sum += s.weights[i] * terms[i];
-            }
-            sum
-        };
-        let pairs = N.div_ceil(2);
-        for (pair, sums) in x
-            .as_mut_slice()
-            .chunks_exact_mut(2)
-            .zip(self.sums.chunks_exact(2))
-            .take(pairs)
-        {
-            pair.copy_from_slice(&[sum(&sums[0]), sum(&sums[1])]);
-        }
-        x
-    }
-
-    /// By entry, the model state it makes and its weight there: 1 for a free state, `w_i`
-    /// for a branch deflection (the columns of [`Layout::model_states`] as a matrix, read
-    /// from its rows: a weight of zero is no entry of that state).
-    fn made_states(&self) -> [(usize, f64); SIZE] {
-        let mut made = [(0, 0.0); SIZE];
-        for (state, sum) in self.sums.iter().enumerate() {
-            for (i, &weight) in sum.weights.iter().enumerate() {
-                if weight != 0.0 {
-                    made[sum.first + i] = (state, weight);
-                }
-            }
-        }
-        made
-    }
-
-    fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
-        let mut z = [0.0; SIZE];
-        for j in 0..self.free_count {
-            z[j] = x[self.free[j]];
-        }
-        for e in self.elements() {
-            for i in 0..self.branches {
-                z[e.first + i] = x[e.state] + sliders.offsets[e.direction][i];
-            }
-        }
-        z
-    }
-
-    /// The model's states and the branch offsets of `z` (linear: also rates from rates).
-    fn unpack(&self, z: &Vector, sliders: &mut SliderState) -> StateVector {
-        let x = self.model_states(z);
-        for e in self.elements() {
-            for i in 0..self.branches {
-                sliders.offsets[e.direction][i] = z[e.first + i] - x[e.state];
-            }
-        }
-        x
-    }
-}
-
-/// One group's branch `i` in the coupled vector: its law's constants, and for each
-/// member the entry of its deflection and its element's model state.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Slot {
-    group: usize,
-    branch: usize,
-    law: GroupLaw,
-    entries: [usize; MAX_MEMBERS],
-    states: [usize; MAX_MEMBERS],
-    /// Each member's relaxation rate, the diagonal entry of its element's state.
-    relaxation: [f64; MAX_MEMBERS],
-}
-
-impl Slot {
-    /// Its members' entries of a coupled vector (or of its rates); zero past its members,
-    /// as the group's law takes them.
-    fn of(&self, values: &Vector) -> Members {
-        let mut of = [0.0; MAX_MEMBERS];
-        for m in self.law.members() {
-            of[m] = values[self.entries[m]];
-        }
-        of
-    }
-
-    /// A sticking spring group's event value at `z`: its utilisation less one, a function
-    /// of its deflections alone. `None` for a sliding or damped group, whose value needs
-    /// the rates.
-    fn event_from_deflections(&self, z: &Vector, modes: &Modes) -> Option<f64> {
-        (!modes[self.group][self.branch] && !self.law.damped()).then(|| self.utilisation(z) - 1.0)
-    }
-
-    /// The utilisation of a spring group's forces at its deflections in `z`.
-    fn utilisation(&self, z: &Vector) -> f64 {
-        let input = GroupInput {
-            deflection: self.of(z),
-            ..GroupInput::at_rest(&self.law)
-        };
-        input.utilisation(&input.spring_force())
-    }
-
-    /// Scales a spring group's deflections in `z`, whose forces have `utilisation`, so
-    /// that its force is on the ellipse (along its own direction).
-    fn put_on_ellipse(&self, z: &mut Vector, utilisation: f64) {
-        let shrink = utilisation.sqrt().recip();
-        for m in self.law.members() {
-            z[self.entries[m]] *= shrink;
-        }
-    }
-}
-
-/// The branches of a sliding step laid out in its coupled vector: each group and branch
-/// with a member (a present direction with a limit), its constants filled in at the
-/// step's limits and relaxation rates. A direction with a zero limit is left out: its
-/// branch deflections stay at zero ([`SlidingStep::prepare`] puts them there). The
-/// friction keeps them ([`Friction::lay_out_sliding`]): a slide at a held operating point
-/// makes them once, not at every step and every output.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct SlidingSlots {
-    /// The bits of the limits and of each direction's relaxation rate they were made for
-    /// (the layout itself is made for the model's states, [`Layout::states`]).
-    made_for: [u64; 2 * Direction::COUNT],
-    layout: Layout,
-    slots: [Slot; Group::COUNT * MAX_BRANCHES],
-    count: usize,
-}
-
-impl Friction {
-    /// Makes [`Friction::sliding_slots`] for a step of `system` at `limits`, unless they
-    /// were made for the same.
-    fn lay_out_sliding(&mut self, system: &StateSpace, limits: &Limits) {
-        let mut made_for = [0; 2 * Direction::COUNT];
-        for (d, element) in self.elements.iter().enumerate() {
-            made_for[d] = limits.0[d].to_bits();
-            if let Some(element) = element {
-                made_for[Direction::COUNT + d] = system.a[(element.state, element.state)].to_bits();
-            }
-        }
-        // The entries depend on the model alone: laid out at the first sliding step.
-        let laid_out = &self.sliding_slots;
-        if laid_out.layout.states != system.states {
-            self.sliding_slots.layout = Layout::new(self, system.states);
-        } else if made_for == laid_out.made_for {
-            return;
-        } else if (0..Direction::COUNT)
-            .all(|d| (f64::from_bits(laid_out.made_for[d]) > 0.0) == (limits.0[d] > 0.0))
-        {
-            // The same members (a vehicle's load moves every step, and the speed with
-            // it): only the constants the limits and relaxation rates make change.
-            self.sliding_slots.made_for = made_for;
-            self.refresh_sliding_slots(system, limits);
-            return;
-        }
-        self.sliding_slots.made_for = made_for;
-        self.fill_sliding_slots(system, limits);
-    }
-
-    /// The slots' limits and relaxation rates at `limits` and `system`, their members
-    /// kept (as [`Friction::fill_sliding_slots`] makes them).
-    fn refresh_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
-        let laid_out = &mut self.sliding_slots;
-        for slot in &mut laid_out.slots[..laid_out.count] {
-            let limit_fraction = self.branches[slot.branch].limit_fraction;
-            for m in slot.law.members() {
-                let state = slot.states[m];
-                slot.relaxation[m] = system.a[(state, state)];
-                slot.law
-                    .set_limit(m, limit_fraction * limits.0[slot.law.direction[m]]);
-            }
-        }
-    }
-
-    /// The slots of [`Friction::lay_out_sliding`], written where they are kept.
-    fn fill_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
-        let groups = Self::groups_of(&self.group_members);
-        let laid_out = &mut self.sliding_slots;
-        laid_out.count = 0;
-        for group in groups {
-            for (i, branch) in self.branches.iter().enumerate() {
-                let slot = &mut laid_out.slots[laid_out.count];
-                *slot = Slot {
-                    group: group as usize,
-                    branch: i,
-                    ..Slot::default()
-                };
-                for &direction in group.directions() {
-                    let d = direction as usize;
-                    let Some(element) = self.elements[d].filter(|_| limits.0[d] > 0.0) else {
-                        continue;
-                    };
-                    let m = slot.law.count;
-                    slot.entries[m] = laid_out.layout.branch_entry(d, i).expect("a present element");
-                    slot.states[m] = element.state;
-                    slot.relaxation[m] = system.a[(element.state, element.state)];
-                    slot.law = slot.law.with_member(
-                        direction,
-                        branch.stiffness_fraction * element.stiffness,
-                        branch.stiffness_fraction * element.damping,
-                        branch.limit_fraction * limits.0[d],
-                    );
-                }
-                if slot.law.count > 0 {
-                    laid_out.count += 1;
-                }
-            }
-        }
-    }
-}
 
 /// The coupled system of one step: the model at its operating point with held or ramped
 /// driving inputs, and its branches at the step's limits.
@@ -1006,23 +694,6 @@ impl<'a> SlidingStep<'a> {
     }
 }
 
-/// Adds to `change` (by direction) what a damped group's limit does to its force: where
-/// the sticking force `trial` is outside the ellipse (`utilisation > 1`), the closest
-/// point of the ellipse less the trial.
-fn add_damper_force_change(
-    input: &GroupInput,
-    trial: &Members,
-    utilisation: f64,
-    change: &mut [f64; Direction::COUNT],
-) {
-    if utilisation > 1.0 {
-        let force = input.closest_point(trial, utilisation);
-        for m in input.members() {
-            change[input.direction[m]] += force[m] - trial[m];
-        }
-    }
-}
-
 /// How long the eighth-order pair's first and second substeps of a step could have been,
 /// s: each the length at which the pair's estimate from the same start would have been
 /// its aim for them (3 tolerances); infinite where the step took no such substep.
@@ -1036,220 +707,6 @@ type Evaluation = (Vector, Events);
 
 /// A place for an [`Evaluation`], before one is written there ([`SlidingStep::rates_into`]).
 const UNEVALUATED: Evaluation = ([0.0; SIZE], [[0.0; MAX_BRANCHES]; Group::COUNT]);
-
-/// What deciding the modes at a step's start found.
-struct Decided {
-    /// Every group sticks strictly inside its limit.
-    inside: bool,
-    /// A deflection was moved (onto its limit, or to zero in a frictionless direction),
-    /// and the states and offsets written back.
-    moved: bool,
-}
-
-/// What preparing a step decided where it moved no deflection: each group's mode, and
-/// how fast the sliding ones move their forces. The same states, inputs, operating point
-/// and limits decide the same again ([`SlidingStep::prepare_from`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Preparation {
-    sliding: Modes,
-    sliding_rate: f64,
-}
-
-impl<'a> SlidingStep<'a> {
-    /// Brings the branches to the step's limits and inputs at its start: a spring force
-    /// outside its limit is put on it (the load fell), and each group's mode is decided
-    /// from its state. Returns true if every group sticks strictly inside its limit.
-    pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
-        self.decide_modes(x, sliders, false, None).inside
-    }
-
-    /// [`SlidingStep::prepare`] as `preparation` found it at the same states, inputs,
-    /// operating point and limits, where it moved nothing: the same modes, not decided
-    /// again.
-    pub fn prepare_from(&self, sliders: &mut SliderState, preparation: &Preparation) {
-        sliders.sliding = preparation.sliding;
-        self.start_sliding_rate.set(preparation.sliding_rate);
-    }
-
-    /// [`SlidingStep::prepare`], and then [`SlidingStep::damper_force_changes`] at the
-    /// prepared states: from the same evaluation where preparing moved no deflection,
-    /// which also gives the [`Preparation`] a step from these states would make.
-    pub fn prepare_with_damper_force_changes(
-        &self,
-        x: &mut StateVector,
-        sliders: &mut SliderState,
-    ) -> ([f64; Direction::COUNT], Option<Preparation>) {
-        let mut change = [0.0; Direction::COUNT];
-        // Where a deflection was moved (a frictionless direction's too, whose damper's
-        // share goes), the changes are made at the prepared states.
-        if self.decide_modes(x, sliders, false, Some(&mut change)).moved {
-            (self.damper_force_changes(x, sliders), None)
-        } else {
-            let preparation = Preparation {
-                sliding: sliders.sliding,
-                sliding_rate: self.start_sliding_rate.get(),
-            };
-            (change, Some(preparation))
-        }
-    }
-
-    /// At an event of the hybrid system ([`crate::physics::tire::hybrid`]): as
-    /// [`SlidingStep::prepare`], and a spring group found outside its limit (the load fell
-    /// below its force) slides even where nothing moves it (not where its motion turns
-    /// inward): its slider slips as the limit falls. (A step holds the load, so it needs no
-    /// such rule.)
-    pub fn update_modes(&self, x: &mut StateVector, sliders: &mut SliderState) {
-        self.decide_modes(x, sliders, true, None);
-    }
-
-    /// With `damper_changes`, also adds up [`SlidingStep::damper_force_changes`] at the
-    /// states as they come (the prepared ones where nothing was moved).
-    fn decide_modes(
-        &self,
-        x: &mut StateVector,
-        sliders: &mut SliderState,
-        pushed_out_slides: bool,
-        mut damper_changes: Option<&mut [f64; Direction::COUNT]>,
-    ) -> Decided {
-        let layout = &self.layout;
-        let mut z = layout.pack(x, sliders);
-        let mut inside = true;
-        // Whether a deflection was moved: only then are the states and offsets written
-        // back (through the coupled vector they would round), so that the outputs at
-        // states within every limit are exactly the linear model's.
-        let mut moved = false;
-        for e in layout.elements() {
-            if self.limits.0[e.direction] <= 0.0 {
-                z[e.first..e.first + layout.branches].fill(0.0);
-                inside = false;
-                moved = true;
-            }
-        }
-        for group in self.friction.groups() {
-            sliders.sliding[group as usize] = [false; MAX_BRANCHES];
-        }
-        let states = layout.model_states(&z);
-        let rates = self.system.state_rates(&states, &self.inputs);
-        let mut fastest = 0.0_f64;
-        for slot in self.slots() {
-            let input = self.slot_input(slot, &states, &rates, &z);
-            let sliding = if input.damped() {
-                let trial = input.sticking_force();
-                let utilisation = input.utilisation(&trial);
-                inside &= utilisation < 1.0;
-                if let Some(change) = damper_changes.as_deref_mut() {
-                    add_damper_force_change(&input, &trial, utilisation, change);
-                }
-                utilisation > 1.0
-            } else {
-                let force = input.spring_force();
-                let utilisation = input.utilisation(&force);
-                inside &= utilisation < 1.0;
-                // On its limit to within the event tolerance (as a step leaves a group
-                // that slides, or ends at its event), a force stays where it is.
-                if utilisation > 1.0 + EVENT_TOLERANCE {
-                    slot.put_on_ellipse(&mut z, utilisation);
-                    moved = true;
-                }
-                let cosine = input.outward_cosine(&force);
-                (pushed_out_slides && utilisation > 1.0 + 0.5 * EVENT_TOLERANCE && cosine >= 0.0)
-                    || utilisation >= 1.0 - EVENT_TOLERANCE && cosine > 0.0
-            };
-            sliders.sliding[slot.group][slot.branch] = sliding;
-            if sliding {
-                fastest = fastest.max(input.sliding_rate());
-            }
-        }
-        self.start_sliding_rate.set(fastest);
-        if moved {
-            *x = layout.unpack(&z, sliders);
-        }
-        Decided { inside, moved }
-    }
-
-    /// The change of the element forces (by direction) that the damped groups' limits
-    /// make at these states and inputs: the sticking force where it is inside the limit,
-    /// the closest point of the ellipse where it is not.
-    pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
-        let z = self.layout.pack(x, sliders);
-        let states = self.layout.model_states(&z);
-        let rates = self.system.state_rates(&states, &self.inputs);
-        let mut change = [0.0; Direction::COUNT];
-        // A frictionless direction carries no force: its damper's share goes too.
-        for (d, element) in self.friction.elements.iter().enumerate() {
-            if let Some(element) = element
-                && self.limits.0[d] <= 0.0
-            {
-                let k = element.state;
-                change[d] -= element.stiffness * states[k] + element.damping * rates[k];
-            }
-        }
-        for slot in self.slots() {
-            let input = self.slot_input(slot, &states, &rates, &z);
-            if !input.damped() {
-                continue;
-            }
-            let trial = input.sticking_force();
-            add_damper_force_change(&input, &trial, input.utilisation(&trial), &mut change);
-        }
-        change
-    }
-
-    /// The tire as a hybrid system in the modes of `sliders` (an importer's solver
-    /// integrates it): the rates of the model's states and of the branch offsets, and each
-    /// group's event value by group and branch (negative while it keeps its mode; `-inf`
-    /// where there is no such group). A sliding spring group's force stays on its
-    /// ellipse only while the limit holds still; where the load moves the limit, its
-    /// deflections are also drawn back to the ellipse at [`SlidingStep::RETURN_RATE`] or
-    /// faster, so the force follows the limit: down as the load falls, and up as it rises
-    /// while the slider moves outward (a group inside its limit that nothing moves keeps
-    /// its force, as it would sticking).
-    pub fn mode_rates(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState, Events) {
-        self.unpacked_rates(x, sliders, true)
-    }
-
-    /// The rates of the model's states and of the branch offsets, and the event values,
-    /// at these states in their modes; with `follow_limit`, a sliding spring group is
-    /// drawn back to its ellipse as [`SlidingStep::mode_rates`] says.
-    fn unpacked_rates(
-        &self,
-        x: &StateVector,
-        sliders: &SliderState,
-        follow_limit: bool,
-    ) -> (StateVector, SliderState, Events) {
-        let z = self.layout.pack(x, sliders);
-        let (rates, events) =
-            self.rates_adjusted(0.0, &z, &sliders.sliding, |slot, input, sliding, rates| {
-                if !(follow_limit && sliding) || input.damped() {
-                    return;
-                }
-                let force = input.spring_force();
-                let utilisation = input.utilisation(&force);
-                if utilisation > 1.0 || utilisation > 0.0 && input.outward_cosine(&force) > 0.0 {
-                    let rate = input.sliding_rate().max(Self::RETURN_RATE);
-                    let pull = rate * (1.0 - utilisation.sqrt().recip());
-                    for m in input.members() {
-                        rates[slot.entries[m]] -= pull * z[slot.entries[m]];
-                    }
-                }
-            });
-        let mut offset_rates = SliderState::AT_REST;
-        let x_rates = self.layout.unpack(&rates, &mut offset_rates);
-        (x_rates, offset_rates, events)
-    }
-
-    /// The slowest rate, 1/s, at which a sliding spring group's deflections return to the
-    /// ellipse in [`SlidingStep::mode_rates`]: a load that changes by 1 % per second
-    /// leaves the force about 1e-5 of the limit behind it.
-    pub const RETURN_RATE: f64 = 1000.0;
-
-    /// The rates of the model's states and of the branch offsets at these states (the
-    /// state rates with the limits acting).
-    pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
-        let (x_rates, offset_rates, _) = self.unpacked_rates(x, sliders, false);
-        (x_rates, offset_rates)
-    }
-}
 
 /// What the sliding path's tests step: a tire of parameters `p` at `vx` and `load`, its
 /// friction, its limits, and the elastic travel to its largest limit.

@@ -1,0 +1,241 @@
+//! The modes of a sliding step's groups, as the hybrid system decides them: at a step's
+//! start (or an event of an importer's solver), which groups stick and which slide, a
+//! force past its limit put on it (the reset); the damped forces shaped by their limits
+//! for the outputs; and the rates and event values (guards) of the states in their modes,
+//! which Model Exchange exposes.
+
+use super::super::group::{GroupInput, Members};
+use super::super::{Direction, EVENT_TOLERANCE, MAX_BRANCHES, SliderState};
+use super::{Events, Modes, SlidingStep};
+use crate::physics::state_space::StateVector;
+
+/// What deciding the modes at a step's start found.
+struct Decided {
+    /// Every group sticks strictly inside its limit.
+    inside: bool,
+    /// A deflection was moved (onto its limit, or to zero in a frictionless direction),
+    /// and the states and offsets written back.
+    moved: bool,
+}
+
+/// What preparing a step decided where it moved no deflection: each group's mode, and
+/// how fast the sliding ones move their forces. The same states, inputs, operating point
+/// and limits decide the same again ([`SlidingStep::prepare_from`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Preparation {
+    sliding: Modes,
+    sliding_rate: f64,
+}
+
+impl<'a> SlidingStep<'a> {
+    /// Brings the branches to the step's limits and inputs at its start: a spring force
+    /// outside its limit is put on it (the load fell), and each group's mode is decided
+    /// from its state. Returns true if every group sticks strictly inside its limit.
+    pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
+        self.decide_modes(x, sliders, false, None).inside
+    }
+
+    /// [`SlidingStep::prepare`] as `preparation` found it at the same states, inputs,
+    /// operating point and limits, where it moved nothing: the same modes, not decided
+    /// again.
+    pub fn prepare_from(&self, sliders: &mut SliderState, preparation: &Preparation) {
+        sliders.sliding = preparation.sliding;
+        self.start_sliding_rate.set(preparation.sliding_rate);
+    }
+
+    /// [`SlidingStep::prepare`], and then [`SlidingStep::damper_force_changes`] at the
+    /// prepared states: from the same evaluation where preparing moved no deflection,
+    /// which also gives the [`Preparation`] a step from these states would make.
+    pub fn prepare_with_damper_force_changes(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+    ) -> ([f64; Direction::COUNT], Option<Preparation>) {
+        let mut change = [0.0; Direction::COUNT];
+        // Where a deflection was moved (a frictionless direction's too, whose damper's
+        // share goes), the changes are made at the prepared states.
+        if self.decide_modes(x, sliders, false, Some(&mut change)).moved {
+            (self.damper_force_changes(x, sliders), None)
+        } else {
+            let preparation = Preparation {
+                sliding: sliders.sliding,
+                sliding_rate: self.start_sliding_rate.get(),
+            };
+            (change, Some(preparation))
+        }
+    }
+
+    /// At an event of the hybrid system ([`crate::physics::tire::hybrid`]): as
+    /// [`SlidingStep::prepare`], and a spring group found outside its limit (the load fell
+    /// below its force) slides even where nothing moves it (not where its motion turns
+    /// inward): its slider slips as the limit falls. (A step holds the load, so it needs no
+    /// such rule.)
+    pub fn update_modes(&self, x: &mut StateVector, sliders: &mut SliderState) {
+        self.decide_modes(x, sliders, true, None);
+    }
+
+    /// With `damper_changes`, also adds up [`SlidingStep::damper_force_changes`] at the
+    /// states as they come (the prepared ones where nothing was moved).
+    fn decide_modes(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        pushed_out_slides: bool,
+        mut damper_changes: Option<&mut [f64; Direction::COUNT]>,
+    ) -> Decided {
+        let layout = &self.layout;
+        let mut z = layout.pack(x, sliders);
+        let mut inside = true;
+        // Whether a deflection was moved: only then are the states and offsets written
+        // back (through the coupled vector they would round), so that the outputs at
+        // states within every limit are exactly the linear model's.
+        let mut moved = false;
+        for e in layout.elements() {
+            if self.limits.0[e.direction] <= 0.0 {
+                z[e.first..e.first + layout.branches].fill(0.0);
+                inside = false;
+                moved = true;
+            }
+        }
+        for group in self.friction.groups() {
+            sliders.sliding[group as usize] = [false; MAX_BRANCHES];
+        }
+        let states = layout.model_states(&z);
+        let rates = self.system.state_rates(&states, &self.inputs);
+        let mut fastest = 0.0_f64;
+        for slot in self.slots() {
+            let input = self.slot_input(slot, &states, &rates, &z);
+            let sliding = if input.damped() {
+                let trial = input.sticking_force();
+                let utilisation = input.utilisation(&trial);
+                inside &= utilisation < 1.0;
+                if let Some(change) = damper_changes.as_deref_mut() {
+                    add_damper_force_change(&input, &trial, utilisation, change);
+                }
+                utilisation > 1.0
+            } else {
+                let force = input.spring_force();
+                let utilisation = input.utilisation(&force);
+                inside &= utilisation < 1.0;
+                // On its limit to within the event tolerance (as a step leaves a group
+                // that slides, or ends at its event), a force stays where it is.
+                if utilisation > 1.0 + EVENT_TOLERANCE {
+                    slot.put_on_ellipse(&mut z, utilisation);
+                    moved = true;
+                }
+                let cosine = input.outward_cosine(&force);
+                (pushed_out_slides && utilisation > 1.0 + 0.5 * EVENT_TOLERANCE && cosine >= 0.0)
+                    || utilisation >= 1.0 - EVENT_TOLERANCE && cosine > 0.0
+            };
+            sliders.sliding[slot.group][slot.branch] = sliding;
+            if sliding {
+                fastest = fastest.max(input.sliding_rate());
+            }
+        }
+        self.start_sliding_rate.set(fastest);
+        if moved {
+            *x = layout.unpack(&z, sliders);
+        }
+        Decided { inside, moved }
+    }
+
+    /// The change of the element forces (by direction) that the damped groups' limits
+    /// make at these states and inputs: the sticking force where it is inside the limit,
+    /// the closest point of the ellipse where it is not.
+    pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
+        let z = self.layout.pack(x, sliders);
+        let states = self.layout.model_states(&z);
+        let rates = self.system.state_rates(&states, &self.inputs);
+        let mut change = [0.0; Direction::COUNT];
+        // A frictionless direction carries no force: its damper's share goes too.
+        for (d, element) in self.friction.elements.iter().enumerate() {
+            if let Some(element) = element
+                && self.limits.0[d] <= 0.0
+            {
+                let k = element.state;
+                change[d] -= element.stiffness * states[k] + element.damping * rates[k];
+            }
+        }
+        for slot in self.slots() {
+            let input = self.slot_input(slot, &states, &rates, &z);
+            if !input.damped() {
+                continue;
+            }
+            let trial = input.sticking_force();
+            add_damper_force_change(&input, &trial, input.utilisation(&trial), &mut change);
+        }
+        change
+    }
+
+    /// The tire as a hybrid system in the modes of `sliders` (an importer's solver
+    /// integrates it): the rates of the model's states and of the branch offsets, and each
+    /// group's event value by group and branch (negative while it keeps its mode; `-inf`
+    /// where there is no such group). A sliding spring group's force stays on its
+    /// ellipse only while the limit holds still; where the load moves the limit, its
+    /// deflections are also drawn back to the ellipse at [`SlidingStep::RETURN_RATE`] or
+    /// faster, so the force follows the limit: down as the load falls, and up as it rises
+    /// while the slider moves outward (a group inside its limit that nothing moves keeps
+    /// its force, as it would sticking).
+    pub fn mode_rates(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState, Events) {
+        self.unpacked_rates(x, sliders, true)
+    }
+
+    /// The rates of the model's states and of the branch offsets, and the event values,
+    /// at these states in their modes; with `follow_limit`, a sliding spring group is
+    /// drawn back to its ellipse as [`SlidingStep::mode_rates`] says.
+    fn unpacked_rates(
+        &self,
+        x: &StateVector,
+        sliders: &SliderState,
+        follow_limit: bool,
+    ) -> (StateVector, SliderState, Events) {
+        let z = self.layout.pack(x, sliders);
+        let (rates, events) =
+            self.rates_adjusted(0.0, &z, &sliders.sliding, |slot, input, sliding, rates| {
+                if !(follow_limit && sliding) || input.damped() {
+                    return;
+                }
+                let force = input.spring_force();
+                let utilisation = input.utilisation(&force);
+                if utilisation > 1.0 || utilisation > 0.0 && input.outward_cosine(&force) > 0.0 {
+                    let rate = input.sliding_rate().max(Self::RETURN_RATE);
+                    let pull = rate * (1.0 - utilisation.sqrt().recip());
+                    for m in input.members() {
+                        rates[slot.entries[m]] -= pull * z[slot.entries[m]];
+                    }
+                }
+            });
+        let mut offset_rates = SliderState::AT_REST;
+        let x_rates = self.layout.unpack(&rates, &mut offset_rates);
+        (x_rates, offset_rates, events)
+    }
+
+    /// The slowest rate, 1/s, at which a sliding spring group's deflections return to the
+    /// ellipse in [`SlidingStep::mode_rates`]: a load that changes by 1 % per second
+    /// leaves the force about 1e-5 of the limit behind it.
+    pub const RETURN_RATE: f64 = 1000.0;
+
+    /// The rates of the model's states and of the branch offsets at these states (the
+    /// state rates with the limits acting).
+    pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
+        let (x_rates, offset_rates, _) = self.unpacked_rates(x, sliders, false);
+        (x_rates, offset_rates)
+    }
+}
+
+/// Adds to `change` (by direction) what a damped group's limit does to its force: where
+/// the sticking force `trial` is outside the ellipse (`utilisation > 1`), the closest
+/// point of the ellipse less the trial.
+fn add_damper_force_change(
+    input: &GroupInput,
+    trial: &Members,
+    utilisation: f64,
+    change: &mut [f64; Direction::COUNT],
+) {
+    if utilisation > 1.0 {
+        let force = input.closest_point(trial, utilisation);
+        for m in input.members() {
+            change[input.direction[m]] += force[m] - trial[m];
+        }
+    }
+}
