@@ -772,7 +772,7 @@ impl Instance {
             },
             None => FrictionState {
                 sliders: crate::physics::friction::SliderState::AT_REST,
-                high_order_substeps: [f64::INFINITY; 2],
+                high_order_substeps: crate::physics::friction::NOT_CARRIED,
             },
         })
     }

@@ -529,52 +529,11 @@ impl<'a> GroupInput<'a> {
     /// `q_k = 1 + lambda a_k`, on the ellipse: from the constraint, `d lambda / d T_j =
     /// (F_j / (L_j^2 q_j)) / S` with `S = sum F_k^2 a_k / (L_k^2 q_k)`, so `d F_k / d T_j =
     /// (delta_kj - F_k a_k d lambda / d T_j) / q_k`; `T = K b + Dw g`.
+    ///
+    /// Written out over both member slots, so that its loops have a known length: a
+    /// missing member's constants, deflection and rate are zero, so its rows and columns
+    /// come out zero and its terms add nothing.
     fn damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
-        if self.count == MAX_MEMBERS {
-            self.planar_damped_sliding_slopes(rate, slopes);
-        } else {
-            self.general_damped_sliding_slopes(rate, slopes);
-        }
-    }
-
-    /// [`GroupInput::damped_sliding_slopes`] over the members there are.
-    fn general_damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
-        let trial = self.sticking_force();
-        // The force `K b + Dw db/dt`, and the multiplier from the member farthest along
-        // its limit: `q_k = T_k / F_k`.
-        let mut force = [0.0; MAX_MEMBERS];
-        let (mut lambda, mut farthest) = (0.0, 0.0);
-        for k in self.members() {
-            force[k] = self.stiffness[k] * self.deflection[k] + self.damping[k] * rate[k];
-            let along = (force[k] * self.inverse_limit[k]).abs();
-            if along > farthest {
-                (lambda, farthest) = ((trial[k] / force[k] - 1.0) / self.weight[k], along);
-            }
-        }
-        let mut inverse_q = [0.0; MAX_MEMBERS];
-        let mut along = [0.0; MAX_MEMBERS];
-        let mut sum = 0.0;
-        for k in self.members() {
-            inverse_q[k] = (1.0 + lambda * self.weight[k]).recip();
-            along[k] = force[k] * self.inverse_limit[k] * self.inverse_limit[k] * inverse_q[k];
-            sum += along[k] * force[k] * self.weight[k];
-        }
-        for j in self.members() {
-            let multiplier_slope = if sum != 0.0 { along[j] / sum } else { 0.0 };
-            for k in self.members() {
-                let delta = if k == j { 1.0 } else { 0.0 };
-                let force_slope = (delta - force[k] * self.weight[k] * multiplier_slope) * inverse_q[k];
-                let per_damping = force_slope * self.inverse_damping[k];
-                slopes.by_deflection[k][j] =
-                    per_damping * self.stiffness[j] - delta * self.stiffness[k] * self.inverse_damping[k];
-                slopes.by_sticking_rate[k][j] = per_damping * self.damping[j];
-            }
-        }
-    }
-
-    /// [`GroupInput::damped_sliding_slopes`] of a group with both members, written out
-    /// for them (the same operations in the same order, so the same bits).
-    fn planar_damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
         let (stiffness, damping, weight) = (&self.stiffness, &self.damping, &self.weight);
         let (inverse_limit, inverse_damping) = (&self.inverse_limit, &self.inverse_damping);
         let trial = self.sticking_force();
@@ -758,6 +717,16 @@ mod tests {
         planar_damped(b, g, [damping, 2.0 * damping])
     }
 
+    /// The longitudinal member of [`planar`] alone.
+    fn single(b: f64, g: f64, damping: f64) -> GroupInput<'static> {
+        let law = GroupLaw::default().with_member(Direction::Longitudinal, 1000.0, damping, 30.0);
+        GroupInput {
+            deflection: [b, 0.0],
+            sticking_rate: [g, 0.0],
+            ..GroupInput::at_rest(Box::leak(Box::new(law)))
+        }
+    }
+
     fn planar_damped(b: [f64; 2], g: [f64; 2], damping: [f64; 2]) -> GroupInput<'static> {
         let law = GroupLaw::default()
             .with_member(Direction::Longitudinal, 1000.0, damping[0], 30.0)
@@ -837,10 +806,14 @@ mod tests {
                 ([0.001, 0.002], [0.01, -0.02]),
                 ([0.05, 0.0], [0.2, 0.0]),
             ] {
-                for sliding in [true, false] {
-                    let input = planar(b, g, damping);
+                for (sliding, input) in [true, false].into_iter().flat_map(|sliding| {
+                    [
+                        (sliding, planar(b, g, damping)),
+                        (sliding, single(b[0], g[0], damping)),
+                    ]
+                }) {
                     let slopes = input.rate_slopes(sliding, &input.evaluate(sliding).rate);
-                    for j in 0..2 {
+                    for j in input.members() {
                         for (by_rate, delta) in [(false, 1e-9), (true, 1e-6)] {
                             let at = |sign: f64| {
                                 let mut moved = input;
@@ -852,7 +825,7 @@ mod tests {
                                 moved.evaluate(sliding).rate
                             };
                             let (plus, minus) = (at(1.0), at(-1.0));
-                            for k in 0..2 {
+                            for k in input.members() {
                                 let difference = (plus[k] - minus[k]) / (2.0 * delta);
                                 let slope = if by_rate {
                                     slopes.by_sticking_rate[k][j]
@@ -868,40 +841,6 @@ mod tests {
                         }
                     }
                 }
-            }
-        }
-    }
-
-    /// A planar group's slopes written out for both members are those of the members'
-    /// loop, bit for bit.
-    #[test]
-    fn planar_slopes_are_the_general_ones() {
-        for damping in [10.0, 0.3] {
-            for (b, g) in [
-                ([0.02, 0.03], [5.0, -3.0]),
-                ([0.03, 0.0001], [0.01, 0.001]),
-                ([0.0, 0.06], [0.0, 10.0]),
-                ([-0.04, 0.0], [1.0, 0.0]),
-                ([0.0, 0.0], [0.0, 0.0]),
-            ] {
-                let input = planar(b, g, damping);
-                let rate = input.evaluate(true).rate;
-                let (mut planar_slopes, mut general) = (RateSlopes::default(), RateSlopes::default());
-                input.planar_damped_sliding_slopes(&rate, &mut planar_slopes);
-                input.general_damped_sliding_slopes(&rate, &mut general);
-                let bits = |s: &RateSlopes| {
-                    (s.by_deflection
-                        .as_flattened()
-                        .iter()
-                        .chain(s.by_sticking_rate.as_flattened()))
-                    .map(|v| v.to_bits())
-                    .collect::<Vec<_>>()
-                };
-                assert_eq!(
-                    bits(&planar_slopes),
-                    bits(&general),
-                    "{b:?} {g:?} damping {damping}"
-                );
             }
         }
     }

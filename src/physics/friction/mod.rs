@@ -46,7 +46,7 @@ mod sticking;
 mod vocabulary;
 
 /// Event values by group and branch.
-pub use sliding::{Events, HighOrderSubsteps, NO_EVENT};
+pub use sliding::{Events, HighOrderSubsteps, NO_EVENT, NOT_CARRIED};
 pub use sticking::{LinearStep, force_bound};
 pub use vocabulary::{
     ContactElement, ContactElements, Direction, EVENT_TOLERANCE, Group, InverseLimits, Limits, MAX_BRANCHES,
@@ -245,7 +245,7 @@ impl Friction {
             together: true,
             check: StickingCheck::default(),
             sliding_slots: sliding::SlidingSlots::default(),
-            high_order_substeps: [f64::INFINITY; 2],
+            high_order_substeps: NOT_CARRIED,
         })
     }
 
@@ -274,7 +274,7 @@ impl Friction {
     /// outside), all sticking.
     pub fn reset(&mut self) {
         self.set_state(SliderState::AT_REST);
-        self.high_order_substeps = [f64::INFINITY; 2];
+        self.high_order_substeps = NOT_CARRIED;
     }
 
     /// Each branch's offset and whether its groups slide.
@@ -393,6 +393,6 @@ impl Friction {
         state.offsets.iter_mut().flatten().for_each(|o| *o *= decay);
         state.sliding = SliderState::AT_REST.sliding;
         self.set_state(state);
-        self.high_order_substeps = [f64::INFINITY; 2];
+        self.high_order_substeps = NOT_CARRIED;
     }
 }

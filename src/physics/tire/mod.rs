@@ -8,7 +8,7 @@ mod step;
 pub use step::StepError;
 
 use super::friction::sliding::{Preparation, SlidingStep};
-use super::friction::{Friction, HighOrderSubsteps, Limits, SliderState};
+use super::friction::{Friction, HighOrderSubsteps, Limits, NOT_CARRIED, SliderState};
 use super::load::OperatingPoint;
 use super::load::{InverseLengthFactors, LoadLaw};
 use super::models::TireLagModel;
@@ -140,7 +140,7 @@ impl Tire {
     pub fn high_order_substeps(&self) -> HighOrderSubsteps {
         self.friction
             .as_ref()
-            .map_or([f64::INFINITY; 2], Friction::high_order_substeps)
+            .map_or(NOT_CARRIED, Friction::high_order_substeps)
     }
 
     /// Replaces [`Tire::high_order_substeps`] (ignored for the Unlimited law).

@@ -236,7 +236,7 @@ impl<'a> SlidingStep<'a> {
             exponential_misses: Cell::new(0),
             high_order_misses: Cell::new(0),
             high_order_carried,
-            high_order_found: Cell::new([f64::INFINITY; 2]),
+            high_order_found: Cell::new(NOT_CARRIED),
             high_order_pending: Cell::new(None),
             start_sliding_rate: Cell::new(0.0),
         }
@@ -416,7 +416,7 @@ impl<'a> SlidingStep<'a> {
         self.exponential_declined.set(false);
         self.high_order_declined.set(false);
         self.high_order_misses.set(0);
-        self.high_order_found.set([f64::INFINITY; 2]);
+        self.high_order_found.set(NOT_CARRIED);
         self.exponential_misses.set(0);
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
@@ -428,7 +428,7 @@ impl<'a> SlidingStep<'a> {
             return Ok(());
         }
         // The explicit substeps were given up: their lengths tell the next step nothing.
-        self.high_order_found.set([f64::INFINITY; 2]);
+        self.high_order_found.set(NOT_CARRIED);
         self.stiff.set(true);
         self.integrate_by_current_method(x, sliders, h)
     }
@@ -701,6 +701,10 @@ impl<'a> SlidingStep<'a> {
 /// error is largest where its force turns, at a step's start, so its first substep is
 /// its shortest, and the second may be longer than the first's error would allow.
 pub type HighOrderSubsteps = [f64; 2];
+
+/// No lengths carried: the next step's first two substeps by the pair are as long as
+/// asked (at the start, after a reset or a lift-off, or a step the pair did not take).
+pub const NOT_CARRIED: HighOrderSubsteps = [f64::INFINITY; 2];
 
 /// An evaluation's rates and event values.
 type Evaluation = (Vector, Events);
