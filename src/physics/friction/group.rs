@@ -83,6 +83,24 @@ pub struct GroupOutput {
 /// Forces (or rates) by member.
 pub type Members = [f64; MAX_MEMBERS];
 
+/// How fast a sliding spring group returns its members' forces to the ellipse, 1/s: the
+/// least and the largest over its members ([`GroupInput::return_rates`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReturnRates {
+    pub least: f64,
+    pub largest: f64,
+}
+
+impl ReturnRates {
+    /// Each the larger of the two.
+    pub fn max(self, other: ReturnRates) -> ReturnRates {
+        ReturnRates {
+            least: self.least.max(other.least),
+            largest: self.largest.max(other.largest),
+        }
+    }
+}
+
 /// How a group's deflection rates move with its inputs in a fixed mode, by member `k`
 /// and `j`: `d rate_k / d b_j` and `d rate_k / d g_j` (zero rows and columns for a missing
 /// member).
@@ -505,24 +523,28 @@ impl<'a> GroupInput<'a> {
         }
     }
 
-    /// How fast a sliding spring group's slider returns its least-moved member's force
-    /// to the ellipse, `|lambda| min_k K_k / L_k^2` (1/s; zero for one member, sticking
-    /// or damped; `lambda` as in [`GroupInput::rate_slopes`]). Where it is not small
-    /// against a substep, both members' sliders move and the force turns along the
-    /// ellipse as the slip turns: the rates are bilinear in the deflections and `lambda`.
-    pub fn least_return_rate(&self, sliding: bool) -> f64 {
+    /// How fast a sliding spring group's slider returns its members' forces to the
+    /// ellipse, `|lambda| K_k / L_k^2` (1/s; `lambda` as in [`GroupInput::rate_slopes`]),
+    /// the least and the largest over its members (zero sticking, damped, or for one
+    /// member: no turn). Where the least is not small against a substep, both members'
+    /// sliders move and the force turns along the ellipse as the slip turns: the rates
+    /// are bilinear in the deflections and `lambda`. The largest is the fastest mode of
+    /// the slide's linearisation.
+    pub fn return_rates(&self, sliding: bool) -> ReturnRates {
         if !sliding || self.damped() || self.count < 2 {
-            return 0.0;
+            return ReturnRates::default();
         }
         let flow = self.flow(&self.spring_force());
         if flow.stiffness_along <= 0.0 {
-            return 0.0;
+            return ReturnRates::default();
         }
-        let least_curvature = self
-            .members()
-            .map(|j| self.stiffness[j] * self.inverse_limit[j] * self.inverse_limit[j])
-            .fold(f64::INFINITY, f64::min);
-        (flow.along / flow.stiffness_along).abs() * least_curvature
+        let lambda = (flow.along / flow.stiffness_along).abs();
+        let curvature = |j: usize| self.stiffness[j] * self.inverse_limit[j] * self.inverse_limit[j];
+        let (first, second) = (curvature(0), curvature(1));
+        ReturnRates {
+            least: lambda * first.min(second),
+            largest: lambda * first.max(second),
+        }
     }
 
     /// A sliding damped group, `Dw_k db_k/dt = F_k - K_k b_k` with `F_k = T_k / q_k`,

@@ -361,6 +361,17 @@ fn may_near_between(samples: &[Events; STAGES]) -> bool {
     false
 }
 
+/// The pair's substeps reach at most this far into the slide's fastest mode, the
+/// largest return of a sliding spring group's member to its ellipse (its rate times the
+/// length; [`SlidingStep::return_rates`]). Only there does its estimate hold: for a
+/// linear mode `exp(z)`, `z` = -4 at most, the blended estimate is at least seven times
+/// the error; from -5 on, the fifth-order difference passes a zero and the estimate
+/// falls below the error, 50 times at -5.6. A slide in two directions with the pair's
+/// substep at -5.9 was accepted at 0.8 tolerances, its error 280 (SecondOrder, Coulomb,
+/// muX = muY = 0.01, at a standstill). The fixed-length modes (the model's relaxation,
+/// the dampers') stay within 4 as every substep does ([`SlidingStep::longest_substep`]).
+const REACH: f64 = 4.0;
+
 /// What a substep by the pair gave.
 pub(super) enum HighOrder {
     /// Accurate: the end, the factor by which the next substep may grow, and the length
@@ -369,6 +380,8 @@ pub(super) enum HighOrder {
     /// Its error estimate is past the tolerance: the factor by which a substep that
     /// would be within it is shorter.
     TooLong(f64),
+    /// Not tried: longer than [`REACH`] allows; the longest it allows.
+    BeyondReach(f64),
     /// A limit is near inside it, or a value is not finite: the extrapolation takes it.
     NotSuited,
 }
@@ -446,6 +459,10 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
     ) -> HighOrder {
+        let reach = REACH / self.return_rates(t, z, modes).largest;
+        if length > reach {
+            return HighOrder::BeyondReach(reach);
+        }
         let from: [f64; E] = std::array::from_fn(|c| z[c]);
         // The event values at the stages (at the start, the start's).
         let mut samples = [*start_events; STAGES];

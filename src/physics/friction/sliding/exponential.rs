@@ -34,6 +34,7 @@
 use super::events::InteriorSearch;
 use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
 use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, by_entry_count};
+use crate::physics::friction::group::ReturnRates;
 use crate::physics::stepper::phi::inverse_factorials;
 
 /// The most terms of one phi-series; a substep that needs more is too long for it.
@@ -61,8 +62,8 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 
 /// The band of turns in which an exponential substep is not tried: a sliding spring
 /// group's least-moved member returned to the ellipse by between a thousandth of its
-/// deflection and three times it over the substep ([`GroupInput::least_return_rate`]
-/// times the length, the largest over the groups). There the group slides in two
+/// deflection and three times it over the substep (the least of
+/// [`GroupInput::return_rates`] times the length, the largest over the groups). There the group slides in two
 /// directions (a friction ellipse about as long as it is wide, as any tire's with muX
 /// close to muY, at any longitudinal slip) and its force turns towards the slip on a time
 /// scale within the substep's: the linearisation at the substep's start misses the end by
@@ -75,7 +76,7 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 /// (1052 of 1122, each an exprb43 substep thrown away, about 15 % of the case's
 /// instructions); above 3, 89 % were taken.
 ///
-/// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
+/// [`GroupInput::return_rates`]: crate::physics::friction::group::GroupInput::return_rates
 const TURNING_BAND: (f64, f64) = (1e-3, 3.0);
 
 /// How an exponential substep ended.
@@ -240,7 +241,7 @@ impl SlidingStep<'_> {
     ) -> Exponential {
         // Checked before the Jacobian is made: in a combined slide the band declines
         // nearly every attempt.
-        let turn = self.turning_rate(t, z, modes) * length;
+        let turn = self.return_rates(t, z, modes).least * length;
         if turn > TURNING_BAND.0 && turn < TURNING_BAND.1 {
             return Exponential::Turning;
         }
@@ -286,19 +287,20 @@ impl SlidingStep<'_> {
 }
 
 impl SlidingStep<'_> {
-    /// The fastest return of a sliding spring group's least-moved member at `z` (1/s,
-    /// [`GroupInput::least_return_rate`]): how fast a force sliding in two directions
-    /// turns on its ellipse.
+    /// The fastest returns of the sliding spring groups' members to their ellipses at `z`
+    /// (1/s, [`GroupInput::return_rates`], each the largest over the groups): the least
+    /// is how fast a force sliding in two directions turns on its ellipse; the largest,
+    /// the slide's fastest mode.
     ///
-    /// [`GroupInput::least_return_rate`]: crate::physics::friction::group::GroupInput::least_return_rate
-    fn turning_rate(&self, t: f64, z: &Vector, modes: &Modes) -> f64 {
+    /// [`GroupInput::return_rates`]: crate::physics::friction::group::GroupInput::return_rates
+    pub(super) fn return_rates(&self, t: f64, z: &Vector, modes: &Modes) -> ReturnRates {
         let x = self.layout.model_states(z);
         let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
         self.slots()
             .iter()
             .filter(|slot| modes[slot.group][slot.branch])
-            .map(|slot| self.slot_input(slot, &x, &x_rates, z).least_return_rate(true))
-            .fold(0.0, f64::max)
+            .map(|slot| self.slot_input(slot, &x, &x_rates, z).return_rates(true))
+            .fold(ReturnRates::default(), ReturnRates::max)
     }
 }
 

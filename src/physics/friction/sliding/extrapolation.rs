@@ -204,6 +204,12 @@ impl SlidingStep<'_> {
                                     return Err(shorter);
                                 }
                             }
+                            // Shorter, to a little within its reach, and not a miss: the
+                            // same start gives the same reach, so the next try is within it.
+                            HighOrder::BeyondReach(reach) => {
+                                *length = tried;
+                                return Err(0.999 * reach / tried);
+                            }
                             HighOrder::NotSuited => {}
                         }
                     }
