@@ -298,6 +298,67 @@ fn parameter_errors_name_the_parameter_the_value_and_the_rule() {
 }
 
 /// Random tires: every parameter scaled by a factor from `0.05..20` of its default.
+/// A RingBody whose friction coefficient its load sensitivity takes to zero at its load
+/// (-0.83 at more than twice the nominal load): every limit is zero, so the contact is
+/// frictionless. Its ring's equivalent mass is a few grams (0.4 kg m2 on an 11 m radius)
+/// on a circumferential damper of 34 kN s/m, a mode of 1e7/s. Steps of 1 us to 10 s are
+/// all taken, with finite states, and a 0.1 s step ends where a hundred 1 ms steps do.
+#[test]
+fn a_frictionless_tire_with_a_fast_ring_takes_every_step() {
+    let mut p = Parameters::default()
+        .with_model(ModelKind::RingBody)
+        .with_friction(FrictionLaw::Coulomb);
+    for (parameter, value) in [
+        (Parameter::CorneringStiffness, 4.88e6),
+        (Parameter::SlipStiffness, 4.10e6),
+        (Parameter::LateralRelaxationLength, 9.98),
+        (Parameter::LongitudinalRelaxationLength, 0.846),
+        (Parameter::RollingRadius, 10.97),
+        (Parameter::NominalLoad, 18_111.0),
+        (Parameter::ContactMass, 1.0),
+        (Parameter::RingMass, 338.0),
+        (Parameter::RingInertia, 0.4),
+        (Parameter::RingCircumferentialDamping, 34_256.0),
+        (Parameter::TreadRelaxationLength, 0.005),
+        (Parameter::LongitudinalFriction, 0.04),
+        (Parameter::LateralFriction, 0.04),
+        (Parameter::FrictionLoadSensitivity, -0.83),
+    ] {
+        p.set(parameter, value).unwrap();
+    }
+    let start = |fz: f64| {
+        let mut t = Tire::new(p.clone()).unwrap();
+        for (input, value) in [(Input::Vx, 0.0), (Input::Vy, -4.53), (Input::Fz, fz)] {
+            t.set_input(input, value);
+        }
+        t.step(7.8).expect("a frictionless step");
+        for (input, value) in [(Input::Vy, -2.56), (Input::Vsx, 2.05), (Input::Fz, 92_300.0)] {
+            t.set_input(input, value);
+        }
+        t
+    };
+    for h in [1e-6, 1e-3, 0.1, 10.0] {
+        let mut t = start(41_500.0);
+        for _ in 0..3 {
+            t.step(h).unwrap_or_else(|e| panic!("a {h} s step: {e}"));
+            let outputs = t.outputs().as_slice().to_vec();
+            assert!(t.states().iter().chain(&outputs).all(|v| v.is_finite()));
+        }
+    }
+    let (mut long, mut short) = (start(41_500.0), start(41_500.0));
+    long.step(0.1).unwrap();
+    for _ in 0..100 {
+        short.step(1e-3).unwrap();
+    }
+    let largest = short.states().iter().fold(1e-3, |m: f64, v| m.max(v.abs()));
+    for (a, b) in long.states().iter().zip(short.states().iter()) {
+        assert!(
+            (a - b).abs() <= 1e-9 * largest,
+            "{a} after 0.1 s against {b} after 100 steps of 1 ms"
+        );
+    }
+}
+
 fn parameters_strategy() -> impl Strategy<Value = Parameters> {
     scaled_parameters(0.05..20.0)
 }

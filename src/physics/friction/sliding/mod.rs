@@ -39,6 +39,9 @@
 //! drivers in closed form, the driven groups by an integration of their own
 //! (exponential, or linearly implicit for a stiff slide).
 //!
+//! Where no branch can carry a force (every limit zero), the tire is linear again:
+//! [`frictionless`] takes the step by its exact map.
+//!
 //! Here: the coupled system's rates and event values, and the loop over pieces;
 //! [`layout`]: where each state and branch deflection sits in the coupled vector, and
 //! the groups' slots; [`modes`]: which groups stick and which slide (at a step's start,
@@ -55,6 +58,7 @@ mod dormand_prince;
 mod events;
 mod exponential;
 mod extrapolation;
+mod frictionless;
 mod implicit;
 mod layout;
 mod modes;
@@ -418,6 +422,9 @@ impl<'a> SlidingStep<'a> {
         self.high_order_misses.set(0);
         self.high_order_found.set(NOT_CARRIED);
         self.exponential_misses.set(0);
+        if self.frictionless() {
+            return self.frictionless_step(x, sliders, h);
+        }
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
