@@ -469,6 +469,9 @@ impl<'a> GroupInput<'a> {
 
     /// The event value [`GroupInput::evaluate`] gives, the same bits: a damped group's
     /// without its projection onto the ellipse (it follows from the trial force alone).
+    /// (Inlined: a call reads its input back from memory just after it was made, and the
+    /// cascade's drivers took 7 % of DDT's slide there.)
+    #[inline(always)]
     pub fn event(&self, sliding: bool) -> f64 {
         if !self.damped() {
             return self.evaluate_springs(sliding).event;

@@ -212,11 +212,13 @@ impl SlidingStep<'_> {
     /// A driver's group input at deflection `b`: its sticking rate is its element's
     /// equation with `b` in place of the state, `A_kk b + c`.
     fn driver_input<'s>(&self, slot: &'s Slot, b: f64) -> GroupInput<'s> {
-        let mut input = GroupInput::at_rest(&slot.law);
-        input.deflection[0] = b;
-        input.sticking_rate[0] =
-            slot.relaxation[0] * b + self.system.input_rate(slot.states[0], &self.inputs);
-        input
+        // Each pair made whole (see [`DrivenGroups::inputs`]).
+        let rate = slot.relaxation[0] * b + self.system.input_rate(slot.states[0], &self.inputs);
+        GroupInput {
+            law: &slot.law,
+            deflection: [b, 0.0],
+            sticking_rate: [rate, 0.0],
+        }
     }
 
     /// The driven groups over the step, side by side, in substeps of one length: by
@@ -235,11 +237,15 @@ impl SlidingStep<'_> {
         let Some(groups) = DrivenGroups::new(self, cascade, modes, sum) else {
             return Some([0.0; DRIVEN]);
         };
+        // Each group's pair whole (a missing member's zero), as its evaluation reads it.
         let mut w = [0.0; DRIVEN];
         for (n, slot) in groups.slots().enumerate() {
-            for m in slot.law.members() {
-                w[entry(n, m)] = z[slot.entries[m]];
-            }
+            let second = if slot.law.count > 1 {
+                z[slot.entries[1]]
+            } else {
+                0.0
+            };
+            w[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&[z[slot.entries[0]], second]);
         }
         // The explicit substeps stay as short as the whole system's exponential ones, so
         // that their samples of the event values are as close; the implicit ones try the
@@ -438,13 +444,18 @@ impl<'s> DrivenGroups<'s> {
         let mut inputs = [GroupInput::default(); MAX_BRANCHES];
         let mut sliding = [false; MAX_BRANCHES];
         for (n, slot) in self.slots().enumerate() {
-            inputs[n] = GroupInput::at_rest(&slot.law);
-            for m in slot.law.members() {
-                let b = w[entry(n, m)];
-                inputs[n].deflection[m] = b;
-                inputs[n].sticking_rate[m] =
-                    slot.relaxation[m] * b + self.drive[n][m] + self.coupling[n][m] * driver;
-            }
+            // Over both member slots, each pair made whole: a missing member's entries
+            // and constants are zero, so its deflection and rate come out zero, and the
+            // law reads each pair back at once (a store of each half would stall it).
+            let deflection = [w[entry(n, 0)], w[entry(n, 1)]];
+            let sticking_rate = [0, 1].map(|m| {
+                slot.relaxation[m] * deflection[m] + self.drive[n][m] + self.coupling[n][m] * driver
+            });
+            inputs[n] = GroupInput {
+                law: &slot.law,
+                deflection,
+                sticking_rate,
+            };
             sliding[n] = self.modes[slot.group][slot.branch];
         }
         (inputs, sliding)
@@ -475,9 +486,9 @@ impl<'s> DrivenGroups<'s> {
             rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&outputs[n].rate);
             events[slot.group][slot.branch] = outputs[n].event;
         }
-        for (mode, &q) in Q.iter().enumerate() {
-            rates[q] = 1.0 + sum.rate[mode] * w[q];
-        }
+        // The pair whole, as [`DrivenLinearPart::times`] reads it.
+        let q_rates = [1.0 + sum.rate[0] * w[Q[0]], 1.0 + sum.rate[1] * w[Q[1]]];
+        rates[Q[0]..=Q[1]].copy_from_slice(&q_rates);
         (rates, events, inputs)
     }
 
@@ -551,23 +562,21 @@ struct DrivenLinearPart {
 }
 
 impl LinearPart<DRIVEN> for DrivenLinearPart {
+    /// Pair by pair (a group's members, the two `q`s), each read and written whole: the
+    /// series feeds each product back in at once, and a pair read across two separate
+    /// stores would stall it.
     fn times(&self, v: &Driven) -> Driven {
         let mut product = [0.0; DRIVEN];
+        let q = [v[Q[0]], v[Q[1]]];
         for n in 0..self.count {
-            for k in 0..MAX_MEMBERS {
-                let mut sum = 0.0;
-                for m in 0..MAX_MEMBERS {
-                    sum += self.members[n][m][k] * v[entry(n, m)];
-                }
-                for (mode, &q) in Q.iter().enumerate() {
-                    sum += self.by_q[n][mode][k] * v[q];
-                }
-                product[entry(n, k)] = sum;
-            }
+            let b = [v[entry(n, 0)], v[entry(n, 1)]];
+            let (members, by_q) = (&self.members[n], &self.by_q[n]);
+            let pair = [0, 1]
+                .map(|k| members[0][k] * b[0] + members[1][k] * b[1] + by_q[0][k] * q[0] + by_q[1][k] * q[1]);
+            product[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&pair);
         }
-        for (mode, &q) in Q.iter().enumerate() {
-            product[q] = self.q_rates[mode] * v[q];
-        }
+        let q_product = [self.q_rates[0] * q[0], self.q_rates[1] * q[1]];
+        product[Q[0]..=Q[1]].copy_from_slice(&q_product);
         product
     }
 
