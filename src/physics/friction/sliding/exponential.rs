@@ -63,11 +63,11 @@ const ESTIMATE_MARGIN: f64 = 20.0;
 /// The band of turns in which an exponential substep is not tried: a sliding spring
 /// group's least-moved member returned to the ellipse by between a thousandth of its
 /// deflection and three times it over the substep (the least of
-/// [`GroupInput::return_rates`] times the length, the largest over the groups). There the group slides in two
-/// directions (a friction ellipse about as long as it is wide, as any tire's with muX
-/// close to muY, at any longitudinal slip) and its force turns towards the slip on a time
-/// scale within the substep's: the linearisation at the substep's start misses the end by
-/// tens to thousands of times the tolerance. Below the band the force hardly turns (a
+/// [`GroupInput::return_rates`] times the length, the largest over the groups). There
+/// the group slides in two directions (a friction ellipse about as long as it is wide,
+/// as any tire's with muX close to muY, at any longitudinal slip) and its force turns
+/// towards the slip on a time scale within the substep's: the linearisation at the
+/// substep's start misses the end by tens to thousands of times the tolerance. Below the band the force hardly turns (a
 /// slide in one direction: muX = 0.3 and muY = 0.01 reach 6e-4); above it, the turn is
 /// over within the substep's first part and exprb43 is within its tolerance most of the
 /// time. Over 2000 steps of the slide yardstick's combined case (the turn and the
