@@ -3,7 +3,7 @@
 //! matrix exponential 1x1, 2x2 or 3x3 for the models here.
 
 use crate::physics::signals::DrivingInput;
-use crate::physics::state_space::MAX_STATES;
+use crate::physics::state_space::{MAX_STATES, StateSpace};
 
 /// One block: its states, and the power-of-two scaling that balances its matrix.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,6 +87,22 @@ impl Blocks {
             }
         }
         blocks
+    }
+
+    /// The blocks of one system as it is (its own entries for the magnitudes), where no
+    /// pattern over operating points is kept: a system made for a single step.
+    pub fn of(system: &StateSpace) -> Self {
+        let mut magnitude = [[0.0; MAX_STATES]; MAX_STATES];
+        let mut driven = [[false; DrivingInput::COUNT]; MAX_STATES];
+        for i in 0..system.states {
+            for (j, entry) in magnitude[i].iter_mut().enumerate().take(system.states) {
+                *entry = system.a[(i, j)].abs();
+            }
+            for (k, entry) in driven[i].iter_mut().enumerate() {
+                *entry = system.b[(i, k)] != 0.0;
+            }
+        }
+        Self::new(system.states, &magnitude, &driven)
     }
 
     pub fn iter(&self) -> impl Iterator<Item = &Block> {

@@ -22,6 +22,7 @@ use super::extrapolation::{ROUNDING, TOLERANCE, larger, largest_of};
 use super::{
     Events, HighOrderSubsteps, Modes, NO_EVENT, SIZE, SlidingStep, UNEVALUATED, Vector, by_entry_count,
 };
+use crate::physics::friction::group::ReturnRates;
 
 /// The stages of the eighth-order solution.
 const STAGES: usize = 12;
@@ -372,6 +373,12 @@ fn may_near_between(samples: &[Events; STAGES]) -> bool {
 /// the dampers') stay within 4 as every substep does ([`SlidingStep::longest_substep`]).
 const REACH: f64 = 4.0;
 
+/// The longest substep the pair takes where the slide's members return to their
+/// ellipses at `returns` ([`REACH`]).
+pub(super) fn reach(returns: ReturnRates) -> f64 {
+    REACH / returns.largest
+}
+
 /// What a substep by the pair gave.
 pub(super) enum HighOrder {
     /// Accurate: the end, the factor by which the next substep may grow, and the length
@@ -380,8 +387,6 @@ pub(super) enum HighOrder {
     /// Its error estimate is past the tolerance: the factor by which a substep that
     /// would be within it is shorter.
     TooLong(f64),
-    /// Not tried: longer than [`REACH`] allows; the longest it allows.
-    BeyondReach(f64),
     /// A limit is near inside it, or a value is not finite: the extrapolation takes it.
     NotSuited,
 }
@@ -437,7 +442,7 @@ impl SlidingStep<'_> {
     }
 
     /// A substep of `length` from `z` with its `start` rates and event values by the
-    /// eighth-order pair (see the module's doc).
+    /// eighth-order pair (see the module's doc); `length` within its [`reach`].
     pub(super) fn high_order_substep(
         &self,
         t: f64,
@@ -459,10 +464,6 @@ impl SlidingStep<'_> {
         length: f64,
         modes: &Modes,
     ) -> HighOrder {
-        let reach = REACH / self.return_rates(t, z, modes).largest;
-        if length > reach {
-            return HighOrder::BeyondReach(reach);
-        }
         let from: [f64; E] = std::array::from_fn(|c| z[c]);
         // The event values at the stages (at the start, the start's).
         let mut samples = [*start_events; STAGES];
@@ -544,7 +545,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::super::{longest_taken_ends_where_extrapolated, slide_parameters, with_settled_slide};
-    use super::HighOrder;
+    use super::{HighOrder, reach};
     use crate::physics::friction::FrictionLaw;
     use crate::physics::{ModelKind, Parameter};
 
@@ -570,6 +571,10 @@ mod tests {
             with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
                 let label = format!("{model:?} {law:?} combined {combined}");
                 longest_taken_ends_where_extrapolated(step, (&x, &sliders), travel, &label, |z, start, length, modes| {
+                    // Within the pair's reach, as a step keeps it.
+                    if length > reach(step.return_rates(0.0, z, modes)) {
+                        return None;
+                    }
                     match step.high_order_substep(0.0, z, start, length, modes) {
                         HighOrder::Taken(end, _, _) => Some(end),
                         _ => None,

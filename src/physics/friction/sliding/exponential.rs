@@ -34,7 +34,6 @@
 use super::events::InteriorSearch;
 use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
 use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, by_entry_count};
-use crate::physics::friction::group::ReturnRates;
 use crate::physics::stepper::phi::inverse_factorials;
 
 /// The most terms of one phi-series; a substep that needs more is too long for it.
@@ -215,18 +214,20 @@ fn shortened<const E: usize>(v: &Vector) -> [f64; E] {
 
 impl SlidingStep<'_> {
     /// One exprb43 substep of `length` from `z` at `t`, with its start rates and event
-    /// values (see the module's doc); with `look_inside`, one near a limit is not taken.
-    /// Held driving inputs only: the linearisation carries no time.
+    /// values, where the slide's forces turn on their ellipses at `turning_rate` (the
+    /// least of [`SlidingStep::return_rates`]; see the module's doc); with `look_inside`,
+    /// one near a limit is not taken. Held driving inputs only: the linearisation carries
+    /// no time.
     pub(super) fn exponential_substep(
         &self,
         t: f64,
         z: &Vector,
         start: (&Vector, &Events),
-        length: f64,
+        (length, turning_rate): (f64, f64),
         modes: &Modes,
         look_inside: bool,
     ) -> Exponential {
-        by_entry_count!(self.size(), E => self.exponential_substep_for::<E>(t, z, start, length, modes, look_inside))
+        by_entry_count!(self.size(), E => self.exponential_substep_for::<E>(t, z, start, (length, turning_rate), modes, look_inside))
     }
 
     /// [`SlidingStep::exponential_substep`] in arrays of `E` entries.
@@ -235,13 +236,13 @@ impl SlidingStep<'_> {
         t: f64,
         z: &Vector,
         (start_rates, start_events): (&Vector, &Events),
-        length: f64,
+        (length, turning_rate): (f64, f64),
         modes: &Modes,
         look_inside: bool,
     ) -> Exponential {
         // Checked before the Jacobian is made: in a combined slide the band declines
         // nearly every attempt.
-        let turn = self.return_rates(t, z, modes).least * length;
+        let turn = turning_rate * length;
         if turn > TURNING_BAND.0 && turn < TURNING_BAND.1 {
             return Exponential::Turning;
         }
@@ -283,24 +284,6 @@ impl SlidingStep<'_> {
             (false, factor) if turn * factor < TURNING_BAND.1 => Exponential::Turning,
             (false, factor) => Exponential::TooLong(factor),
         }
-    }
-}
-
-impl SlidingStep<'_> {
-    /// The fastest returns of the sliding spring groups' members to their ellipses at `z`
-    /// (1/s, [`GroupInput::return_rates`], each the largest over the groups): the least
-    /// is how fast a force sliding in two directions turns on its ellipse; the largest,
-    /// the slide's fastest mode.
-    ///
-    /// [`GroupInput::return_rates`]: crate::physics::friction::group::GroupInput::return_rates
-    pub(super) fn return_rates(&self, t: f64, z: &Vector, modes: &Modes) -> ReturnRates {
-        let x = self.layout.model_states(z);
-        let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
-        self.slots()
-            .iter()
-            .filter(|slot| modes[slot.group][slot.branch])
-            .map(|slot| self.slot_input(slot, &x, &x_rates, z).return_rates(true))
-            .fold(ReturnRates::default(), ReturnRates::max)
     }
 }
 
@@ -398,7 +381,8 @@ mod tests {
             with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
                 let label = format!("{model:?} combined {combined}");
                 longest_taken_ends_where_extrapolated(step, (&x, &sliders), travel, &label, |z, start, length, modes| {
-                    match step.exponential_substep(0.0, z, start, length, modes, true) {
+                    let turning_rate = step.return_rates(0.0, z, modes).least;
+                    match step.exponential_substep(0.0, z, start, (length, turning_rate), modes, true) {
                         Exponential::Taken(end, _) => Some(end),
                         _ => None,
                     }

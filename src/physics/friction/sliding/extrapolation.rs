@@ -6,7 +6,9 @@
 //! in h). The midpoint samples also show where a limit may be touched inside the
 //! substep ([`super::events`]).
 
-use super::dormand_prince::HighOrder;
+use std::cell::OnceCell;
+
+use super::dormand_prince::{HighOrder, reach};
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
@@ -121,8 +123,14 @@ impl SlidingStep<'_> {
     pub(super) fn substep_plain(&self, t: f64, z: &Vector, length: f64, modes: &Modes) -> Option<Vector> {
         let (rates, events) = self.rates(t, z, modes);
         if self.exponential_suited()
-            && let Exponential::Taken(end, _) =
-                self.exponential_substep(t, z, (&rates, &events), length, modes, false)
+            && let Exponential::Taken(end, _) = self.exponential_substep(
+                t,
+                z,
+                (&rates, &events),
+                (length, self.return_rates(t, z, modes).least),
+                modes,
+                false,
+            )
         {
             return Some(end);
         }
@@ -162,8 +170,13 @@ impl SlidingStep<'_> {
         if !self.stiff.get() {
             match toward {
                 Toward::NoEvent => {
+                    // How fast the forces return to their ellipses: the exponential
+                    // substep's turn and the pair's reach, made once for both.
+                    let returns = OnceCell::new();
+                    let returns = || *returns.get_or_init(|| self.return_rates(t, z, modes));
                     if self.exponential_suited() {
-                        match self.exponential_substep(t, z, start, asked, modes, true) {
+                        let turning = (asked, returns().least);
+                        match self.exponential_substep(t, z, start, turning, modes, true) {
                             Exponential::Taken(end, growth) => {
                                 self.exponential_misses.set(0);
                                 return Ok(((end, growth, None, 0.5 * asked), End::Clear));
@@ -185,7 +198,7 @@ impl SlidingStep<'_> {
                         }
                     }
                     if self.high_order_suited() {
-                        let tried = self.high_order_first_length(asked);
+                        let tried = self.high_order_first_length(asked).min(reach(returns()));
                         match self.high_order_substep(t, z, start, tried, modes) {
                             HighOrder::Taken(end, growth, aimed_length) => {
                                 self.high_order_misses.set(0);
@@ -203,12 +216,6 @@ impl SlidingStep<'_> {
                                     *length = tried;
                                     return Err(shorter);
                                 }
-                            }
-                            // Shorter, to a little within its reach, and not a miss: the
-                            // same start gives the same reach, so the next try is within it.
-                            HighOrder::BeyondReach(reach) => {
-                                *length = tried;
-                                return Err(0.999 * reach / tried);
                             }
                             HighOrder::NotSuited => {}
                         }

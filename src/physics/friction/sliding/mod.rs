@@ -69,7 +69,7 @@ pub use modes::Preparation;
 
 use std::cell::Cell;
 
-use super::group::{GroupInput, GroupOutput, MAX_TOGETHER, evaluate_together};
+use super::group::{GroupInput, GroupOutput, MAX_TOGETHER, ReturnRates, evaluate_together};
 use super::{Direction, EVENT_TOLERANCE, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateSpace, StateVector};
 use events::{MAX_CHANGES_AT_AN_INSTANT, first_past_tolerance};
@@ -283,6 +283,21 @@ impl<'a> SlidingStep<'a> {
             input.sticking_rate[m] = x_rates[k] + slot.relaxation[m] * (b - x[k]);
         }
         input
+    }
+
+    /// The fastest returns of the sliding spring groups' members to their ellipses at `z`
+    /// (1/s, [`GroupInput::return_rates`], each the largest over the groups): the least
+    /// is how fast a force sliding in two directions turns on its ellipse (where the
+    /// exponential substep is not tried); the largest, the slide's fastest mode (how far
+    /// the eighth-order pair reaches).
+    fn return_rates(&self, t: f64, z: &Vector, modes: &Modes) -> ReturnRates {
+        let x = self.layout.model_states(z);
+        let x_rates = self.system.state_rates(&x, &self.inputs_at(t));
+        self.slots()
+            .iter()
+            .filter(|slot| modes[slot.group][slot.branch])
+            .map(|slot| self.slot_input(slot, &x, &x_rates, z).return_rates(true))
+            .fold(ReturnRates::default(), ReturnRates::max)
     }
 
     fn inputs_at(&self, t: f64) -> DrivingVector {
@@ -738,6 +753,30 @@ fn tire_at(p: &crate::physics::Parameters, vx: f64, load: f64) -> (StateSpace, F
     (system, friction, limits, travel)
 }
 
+/// A step of a tire of parameters `p` at `vx` and `load`, prepared from `states` (in
+/// units of the elastic travel, as far as the model has states; of a centimetre where
+/// every limit is zero and there is no travel) under driving `inputs` held; passed to
+/// `then` with that unit.
+#[cfg(test)]
+fn with_prepared_step<R>(
+    p: &crate::physics::Parameters,
+    (vx, load): (f64, f64),
+    (states, inputs): (&[f64], [f64; 3]),
+    then: impl FnOnce(&SlidingStep, StateVector, SliderState, f64) -> R,
+) -> R {
+    let (system, mut friction, limits, travel) = tire_at(p, vx, load);
+    let unit = if travel > 0.0 { travel } else { 0.01 };
+    let mut x = StateVector::zeros();
+    for (k, state) in states.iter().enumerate().take(system.states) {
+        x[k] = state * unit;
+    }
+    let mut sliders = SliderState::AT_REST;
+    let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
+    let step = SlidingStep::new(&system, &mut friction, limits, (u, DrivingVector::zeros()), unit);
+    step.prepare(&mut x, &mut sliders);
+    then(&step, x, sliders, unit)
+}
+
 /// A slide as a tire of parameters `p` meets it at `vx` and `load`: from `states` (in
 /// units of the elastic travel, as far as the model has states) under driving `inputs`
 /// held, settled for 20 ms and prepared; passed to `then` with its step and travel.
@@ -748,24 +787,16 @@ fn with_settled_slide<R>(
     (states, inputs): (&[f64], [f64; 3]),
     then: impl FnOnce(&SlidingStep, StateVector, SliderState, f64) -> R,
 ) -> R {
-    let (system, mut friction, limits, travel) = tire_at(p, vx, load);
-    let mut x = StateVector::zeros();
-    for (k, state) in states.iter().enumerate().take(system.states) {
-        x[k] = state * travel;
-    }
-    let mut sliders = SliderState::AT_REST;
-    let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
-    let step = SlidingStep::new(
-        &system,
-        &mut friction,
-        limits,
-        (u, DrivingVector::zeros()),
-        travel,
-    );
-    step.prepare(&mut x, &mut sliders);
-    step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
-    step.prepare(&mut x, &mut sliders);
-    then(&step, x, sliders, travel)
+    with_prepared_step(
+        p,
+        (vx, load),
+        (states, inputs),
+        |step, mut x, mut sliders, travel| {
+            step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
+            step.prepare(&mut x, &mut sliders);
+            then(step, x, sliders, travel)
+        },
+    )
 }
 
 /// The parameters of a slide of `model` with `law` at the slide yardstick's friction:
