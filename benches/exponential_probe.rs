@@ -12,7 +12,12 @@
 //! - exponential Euler: `z + h phi1(hJ) f(z)`, one evaluation;
 //! - exprb32 (Hochbruck, Ostermann, Schweitzer 2009): two evaluations, third order;
 //! - exprb43: three evaluations, fourth order, with its embedded third-order solution,
-//!   whose difference is the error estimate a step would be controlled by.
+//!   whose difference is the error estimate a step would be controlled by;
+//! - its early end: `z + h phi1(hJ) f(z) + 8 h phi3(hJ) D2` from exprb43's first two
+//!   evaluations (third order), which a step takes where its difference from exponential
+//!   Euler is within the tolerance; "early/est." is the most its error reached of that
+//!   difference (over steps where the difference is above 1e-13 of the state, ten times
+//!   the reference's own error).
 //!
 //! `J` is the Jacobian of the rates at the start (central differences: its error, near
 //! 1e-10 relative, enters a step as `h^2 dJ f`, below 1e-14 of the states here). A step
@@ -100,6 +105,8 @@ struct Errors {
     exprb32: f64,
     exprb43: f64,
     exprb43_estimate: f64,
+    early: f64,
+    early_of_estimate: f64,
     reference: f64,
     /// Terms of the Taylor series of `phi1(hJ) f` to rounding: the matrix-vector
     /// products a step's phi-functions would take without scaling.
@@ -166,6 +173,7 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     let exprb43 =
         &euler + (&phi3 * 16.0 - &phi4 * 48.0) * &d2 * STEP + (&phi3 * -2.0 + &phi4 * 12.0) * &d3 * STEP;
     let embedded = &euler + &phi3 * (&d2 * 16.0 - &d3 * 2.0) * STEP;
+    let early = &euler + &phi3 * &d2 * (8.0 * STEP);
 
     // The Co-Simulation step from the same start, in the same modes: where it leaves the
     // fixed-mode reference, a mode changed inside the step.
@@ -180,6 +188,11 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     errors.exprb32 = errors.exprb32.max(error(&exprb32));
     errors.exprb43 = errors.exprb43.max(error(&exprb43));
     errors.exprb43_estimate = errors.exprb43_estimate.max((&exprb43 - &embedded).amax() / scale);
+    errors.early = errors.early.max(error(&early));
+    let early_estimate = (&early - &euler).amax() / scale;
+    if early_estimate > 1e-13 {
+        errors.early_of_estimate = errors.early_of_estimate.max(error(&early) / early_estimate);
+    }
     errors.reference = errors.reference.max(error(&coarser));
     errors.taylor_terms = errors.taylor_terms.max(taylor_terms(&(&jacobian * STEP), &f0));
 }
@@ -199,15 +212,25 @@ fn taylor_terms(x: &DMatrix<f64>, v: &DVector<f64>) -> usize {
 
 fn main() {
     println!(
-        "{:<22} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7}",
-        "model, case", "steps", "events", "euler", "exprb32", "exprb43", "estimate", "reference", "terms"
+        "{:<22} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>11} {:>9} {:>7}",
+        "model, case",
+        "steps",
+        "events",
+        "euler",
+        "exprb32",
+        "exprb43",
+        "estimate",
+        "early",
+        "early/est.",
+        "reference",
+        "terms"
     );
     for model in ModelKind::ALL {
         for combined in [false, true] {
             let e = probe(model, combined);
             let case = if combined { "combined" } else { "lateral" };
             println!(
-                "{:<22} {:>7} {:>7} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>7}",
+                "{:<22} {:>7} {:>7} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>11.1e} {:>9.1e} {:>7}",
                 format!("{model:?} {case}"),
                 e.probed,
                 e.with_events,
@@ -215,6 +238,8 @@ fn main() {
                 e.exprb32,
                 e.exprb43,
                 e.exprb43_estimate,
+                e.early,
+                e.early_of_estimate,
                 e.reference,
                 e.taylor_terms
             );

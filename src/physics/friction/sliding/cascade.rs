@@ -14,8 +14,11 @@
 //!   most, where the whole system has twelve) are stepped together by exprb43
 //!   ([`super::exponential::exprb43`]), whose linear part is a few small blocks: each
 //!   group's own two by two, its column for each `q`, and each `q`'s `mu`. The `q`s are
-//!   linear, so the substep carries them exactly. The groups are evaluated side by side,
-//!   so that their projections' Newton steps overlap.
+//!   linear, so the substep carries them exactly. Where exponential Euler is already
+//!   within the tolerance (a slide in one direction), the substep ends after its second
+//!   evaluation with exprb43's third-order companion ([`super::exponential::Exprb43`]),
+//!   and the event values at its end are sampled in place of its third. The groups are
+//!   evaluated side by side, so that their projections' Newton steps overlap.
 //! - **A stiff slide** (a stiff tire at a light load, whose groups turn their forces far
 //!   faster than the step): the driven groups by linearly implicit Euler extrapolation,
 //!   as the whole system's stiff substeps, but each Euler step solves each group's own two
@@ -30,7 +33,7 @@
 //! from its start ([`super::SlidingStep::integrate`]).
 
 use super::events::{InteriorSearch, NEAR_EVENT};
-use super::exponential::{LinearPart, exprb43, negligible_term, resize};
+use super::exponential::{Exprb43, LinearPart, exprb43, negligible_term, resize};
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
 use super::{Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, SliderState, SlidingStep, Slot, Vector};
@@ -289,21 +292,42 @@ impl SlidingStep<'_> {
                     search.sample(stage, 0.5 * length, &events);
                     (stage == 1 || search.found() == (None, None)).then_some(rates)
                 };
-                let (fourth, third) = exprb43(&linear, &w, &rates, stage_rates)?;
                 // Over the groups' deflections: the `q`s are exact.
                 let deflections = entry(groups.count(), 0);
-                let error = self.error_ratio_of(
-                    (&w[..deflections], &fourth[..deflections], &third[..deflections]),
-                    largest,
-                );
-                let (taken, factor) = resize(error);
-                (taken.then_some(fourth), factor)
+                let error_of = |best: &Driven, previous: &Driven| {
+                    self.error_ratio_of(
+                        (&w[..deflections], &best[..deflections], &previous[..deflections]),
+                        largest,
+                    )
+                };
+                let euler_within = |third: &Driven, euler: &Driven| {
+                    self.within_tolerance(
+                        (&w[..deflections], &third[..deflections], &euler[..deflections]),
+                        largest,
+                    )
+                };
+                match exprb43(&linear, &w, &rates, stage_rates, Some(&euler_within))? {
+                    Exprb43::Full { fourth, third } => {
+                        let (taken, factor) = resize(error_of(&fourth, &third));
+                        (taken.then_some(fourth), factor)
+                    }
+                    // `U3` was not evaluated: the end's event values are sampled in its
+                    // place, as the third sample of the substep.
+                    Exprb43::Early { third, euler } => {
+                        search.sample(2, 0.5 * length, &groups.events(&third));
+                        if search.found() != (None, None) {
+                            return None;
+                        }
+                        (Some(third), resize(error_of(&third, &euler)).1)
+                    }
+                }
             };
             if let Some(end) = end {
                 (w, t, taken) = (end, t + length, taken + 1);
                 // An exponential substep has sampled its end (`U3`, to within its remainder
-                // terms), every group clear of its event there: at the step's end that is
-                // the check, with no evaluation more. (The implicit rows sample inside.)
+                // terms, or the end itself where it took no `U3`), every group clear of its
+                // event there: at the step's end that is the check, with no evaluation
+                // more. (The implicit rows sample inside.)
                 if !stiff && t >= h {
                     return Some(w);
                 }
