@@ -203,18 +203,12 @@ pub const MAX_TOGETHER: usize =
     crate::physics::friction::Group::COUNT * crate::physics::friction::MAX_BRANCHES;
 
 /// [`GroupInput::evaluate`] of each of `inputs` in its mode, the same values: the damped
-/// groups that slide take their Newton steps side by side, so that one group's roots and
-/// divisions need not wait for another's (each step waits on the last of its own group).
+/// groups that slide take their projections side by side ([`closest_points_together`]).
 pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut [GroupOutput]) {
     let count = inputs.len().min(MAX_TOGETHER);
     let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
     let mut utilisations = [0.0; MAX_TOGETHER];
-    let mut lambdas = [0.0; MAX_TOGETHER];
-    // The searches, and which of them go on (their indices, the first `pending`): a
-    // round of Newton steps visits only those.
-    let mut searches = [Search::NONE; MAX_TOGETHER];
-    let mut going_on = [0; MAX_TOGETHER];
-    let mut pending = 0;
+    let mut projected = [false; MAX_TOGETHER];
     for j in 0..count {
         let input = &inputs[j];
         if !(input.damped() && sliding[j]) {
@@ -222,9 +216,54 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
             continue;
         }
         let trial = input.sticking_force();
-        let utilisation = input.utilisation(&trial);
-        (trials[j], utilisations[j]) = (trial, utilisation);
-        match input.projection(&trial, utilisation) {
+        (trials[j], utilisations[j], projected[j]) = (trial, input.utilisation(&trial), true);
+    }
+    let lambdas = multipliers_together(&inputs[..count], &trials, &utilisations, &projected);
+    for j in 0..count {
+        if projected[j] {
+            let input = &inputs[j];
+            let force = input.projected(&trials[j], lambdas[j]);
+            outputs[j] = input.damped_sliding(force, utilisations[j]);
+        }
+    }
+}
+
+/// [`GroupInput::closest_point`] of each damped group's trial force (with its
+/// utilisation, above zero), the same values, side by side: the Newton steps of one
+/// group's multiplier need not wait for another's (each waits on the last of its own).
+pub fn closest_points_together(
+    inputs: &[GroupInput],
+    trials: &[Members; MAX_TOGETHER],
+    utilisations: &[f64; MAX_TOGETHER],
+) -> [Members; MAX_TOGETHER] {
+    let count = inputs.len().min(MAX_TOGETHER);
+    let lambdas = multipliers_together(&inputs[..count], trials, utilisations, &[true; MAX_TOGETHER]);
+    let mut points = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
+    for j in 0..count {
+        points[j] = inputs[j].projected(&trials[j], lambdas[j]);
+    }
+    points
+}
+
+/// The multipliers of [`GroupInput::closest_point`] of the groups `j` with `which[j]`, by
+/// rounds of Newton steps over the searches still going on (zero for the others).
+fn multipliers_together(
+    inputs: &[GroupInput],
+    trials: &[Members; MAX_TOGETHER],
+    utilisations: &[f64; MAX_TOGETHER],
+    which: &[bool; MAX_TOGETHER],
+) -> [f64; MAX_TOGETHER] {
+    let mut lambdas = [0.0; MAX_TOGETHER];
+    // The searches, and which of them go on (their indices, the first `pending`): a
+    // round of Newton steps visits only those.
+    let mut searches = [Search::NONE; MAX_TOGETHER];
+    let mut going_on = [0; MAX_TOGETHER];
+    let mut pending = 0;
+    for j in 0..inputs.len().min(MAX_TOGETHER) {
+        if !which[j] {
+            continue;
+        }
+        match inputs[j].projection(&trials[j], utilisations[j]) {
             Projection::Settled(lambda) => lambdas[j] = lambda,
             Projection::Search(search) => {
                 (lambdas[j], searches[j]) = (search.start, search);
@@ -257,13 +296,7 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
     for &j in &going_on[..pending] {
         lambdas[j] = inputs[j].lambda_monotone(&trials[j], &searches[j]);
     }
-    for j in 0..count {
-        let input = &inputs[j];
-        if input.damped() && sliding[j] {
-            let force = input.projected(&trials[j], lambdas[j]);
-            outputs[j] = input.damped_sliding(force, utilisations[j]);
-        }
-    }
+    lambdas
 }
 
 /// The sliding spring law at one state ([`GroupInput::flow`]).

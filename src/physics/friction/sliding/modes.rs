@@ -4,7 +4,7 @@
 //! for the outputs; and the rates and event values (guards) of the states in their modes,
 //! which Model Exchange exposes.
 
-use super::super::group::{GroupInput, Members};
+use super::super::group::{GroupInput, GroupLaw, MAX_TOGETHER, Members, closest_points_together};
 use super::super::{Direction, EVENT_TOLERANCE, MAX_BRANCHES, SliderState};
 use super::{Events, Modes, SlidingStep};
 use crate::physics::state_space::StateVector;
@@ -81,7 +81,7 @@ impl<'a> SlidingStep<'a> {
         x: &mut StateVector,
         sliders: &mut SliderState,
         pushed_out_slides: bool,
-        mut damper_changes: Option<&mut [f64; Direction::COUNT]>,
+        damper_changes: Option<&mut [f64; Direction::COUNT]>,
     ) -> Decided {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
@@ -103,14 +103,15 @@ impl<'a> SlidingStep<'a> {
         let states = layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut fastest = 0.0_f64;
+        let mut outside = DampedOutside::NONE;
         for slot in self.slots() {
             let input = self.slot_input(slot, &states, &rates, &z);
             let sliding = if input.damped() {
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
                 inside &= utilisation < 1.0;
-                if let Some(change) = damper_changes.as_deref_mut() {
-                    add_damper_force_change(&input, &trial, utilisation, change);
+                if damper_changes.is_some() {
+                    outside.add(&input, trial, utilisation);
                 }
                 utilisation > 1.0
             } else {
@@ -133,6 +134,9 @@ impl<'a> SlidingStep<'a> {
             }
         }
         self.start_sliding_rate.set(fastest);
+        if let Some(change) = damper_changes {
+            outside.add_changes(change);
+        }
         if moved {
             *x = layout.unpack(&z, sliders);
         }
@@ -156,14 +160,16 @@ impl<'a> SlidingStep<'a> {
                 change[d] -= element.stiffness * states[k] + element.damping * rates[k];
             }
         }
+        let mut outside = DampedOutside::NONE;
         for slot in self.slots() {
             let input = self.slot_input(slot, &states, &rates, &z);
             if !input.damped() {
                 continue;
             }
             let trial = input.sticking_force();
-            add_damper_force_change(&input, &trial, input.utilisation(&trial), &mut change);
+            outside.add(&input, trial, input.utilisation(&trial));
         }
+        outside.add_changes(&mut change);
         change
     }
 
@@ -223,19 +229,47 @@ impl<'a> SlidingStep<'a> {
     }
 }
 
-/// Adds to `change` (by direction) what a damped group's limit does to its force: where
-/// the sticking force `trial` is outside the ellipse (`utilisation > 1`), the closest
-/// point of the ellipse less the trial.
-fn add_damper_force_change(
-    input: &GroupInput,
-    trial: &Members,
-    utilisation: f64,
-    change: &mut [f64; Direction::COUNT],
-) {
-    if utilisation > 1.0 {
-        let force = input.closest_point(trial, utilisation);
-        for m in input.members() {
-            change[input.direction[m]] += force[m] - trial[m];
+/// The damped groups whose sticking force is outside the ellipse (`utilisation > 1`), as
+/// a pass over the slots finds them, so that their closest points are made side by side
+/// ([`closest_points_together`]): each a few Newton steps, which one after another would
+/// wait on each other's roots and divisions.
+struct DampedOutside<'s> {
+    inputs: [GroupInput<'s>; MAX_TOGETHER],
+    trials: [Members; MAX_TOGETHER],
+    utilisations: [f64; MAX_TOGETHER],
+    count: usize,
+}
+
+impl<'s> DampedOutside<'s> {
+    const NONE: DampedOutside<'static> = DampedOutside {
+        inputs: [GroupInput {
+            law: &GroupLaw::EMPTY,
+            deflection: [0.0; 2],
+            sticking_rate: [0.0; 2],
+        }; MAX_TOGETHER],
+        trials: [[0.0; 2]; MAX_TOGETHER],
+        utilisations: [0.0; MAX_TOGETHER],
+        count: 0,
+    };
+
+    /// A damped group with its sticking force `trial` and that force's utilisation; kept
+    /// if it is outside.
+    fn add(&mut self, input: &GroupInput<'s>, trial: Members, utilisation: f64) {
+        if utilisation > 1.0 && self.count < MAX_TOGETHER {
+            let k = self.count;
+            (self.inputs[k], self.trials[k], self.utilisations[k]) = (*input, trial, utilisation);
+            self.count += 1;
+        }
+    }
+
+    /// Adds to `change` (by direction) what each group's limit does to its force: the
+    /// closest point of the ellipse less the trial, in the order the groups came.
+    fn add_changes(&self, change: &mut [f64; Direction::COUNT]) {
+        let points = closest_points_together(&self.inputs[..self.count], &self.trials, &self.utilisations);
+        for (k, input) in self.inputs[..self.count].iter().enumerate() {
+            for m in input.members() {
+                change[input.direction[m]] += points[k][m] - self.trials[k][m];
+            }
         }
     }
 }
