@@ -448,7 +448,7 @@ impl GroupLaw {
 
 impl<'a> GroupInput<'a> {
     /// The law's group with every deflection and rate zero.
-    pub fn at_rest(law: &'a GroupLaw) -> Self {
+    pub const fn at_rest(law: &'a GroupLaw) -> Self {
         GroupInput {
             law,
             deflection: [0.0; MAX_MEMBERS],

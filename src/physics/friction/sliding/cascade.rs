@@ -300,25 +300,19 @@ impl SlidingStep<'_> {
                         largest,
                     )
                 };
-                let euler_within = |third: &Driven, euler: &Driven| {
-                    self.within_tolerance(
-                        (&w[..deflections], &third[..deflections], &euler[..deflections]),
-                        largest,
-                    )
-                };
-                match exprb43(&linear, &w, &rates, stage_rates, Some(&euler_within))? {
+                match exprb43(&linear, &w, &rates, stage_rates, Some(&error_of))? {
                     Exprb43::Full { fourth, third } => {
                         let (taken, factor) = resize(error_of(&fourth, &third));
                         (taken.then_some(fourth), factor)
                     }
                     // `U3` was not evaluated: the end's event values are sampled in its
                     // place, as the third sample of the substep.
-                    Exprb43::Early { third, euler } => {
+                    Exprb43::Early { third, error } => {
                         search.sample(2, 0.5 * length, &groups.events(&third));
                         if search.found() != (None, None) {
                             return None;
                         }
-                        (Some(third), resize(error_of(&third, &euler)).1)
+                        (Some(third), resize(error).1)
                     }
                 }
             };

@@ -316,14 +316,14 @@ pub(super) enum Exprb43<const E: usize> {
     /// The fourth-order solution and the embedded third-order one.
     Full { fourth: [f64; E], third: [f64; E] },
     /// `z + H phi1(X) f(z) + 8 H phi3(X) D2` (third order from `U2` alone, as exprb32 is
-    /// from a stage at the end) and exponential Euler's `z + H phi1(X) f(z)`: their
-    /// difference, Euler's error, was within the tolerance.
-    Early { third: [f64; E], euler: [f64; E] },
+    /// from a stage at the end), and its difference from exponential Euler's
+    /// `z + H phi1(X) f(z)` (Euler's error) relative to the tolerance, at most 1.
+    Early { third: [f64; E], error: f64 },
 }
 
-/// Whether an early end is taken, from the third-order solution and exponential Euler's
-/// ([`exprb43`]).
-pub(super) type EarlyEnd<'a, const E: usize> = dyn Fn(&[f64; E], &[f64; E]) -> bool + 'a;
+/// The difference of two ends relative to the tolerance (the caller's error ratio), for
+/// the early end of [`exprb43`]: the third-order solution and exponential Euler's.
+pub(super) type EarlyError<'a, const E: usize> = dyn Fn(&[f64; E], &[f64; E]) -> f64 + 'a;
 
 /// One exprb43 substep of `X = H J` ([`Linearisation`]) from `z` with its rates `f0`
 /// (see the module's doc), or `None` where a series would be long, a value is not
@@ -333,7 +333,7 @@ pub(super) type EarlyEnd<'a, const E: usize> = dyn Fn(&[f64; E], &[f64; E]) -> b
 /// With `early`, the substep may end after `U2`: the weight `8 phi3(X)` on `D2` alone
 /// meets the third-order condition `sum b_i c_i^2 = 2 phi3` at `c2 = 1/2`, and its
 /// difference from exponential Euler (second order) estimates Euler's error.
-/// `early(third, euler)` says whether that is within the tolerance; where it is, the
+/// `early(third, euler)` gives it relative to the tolerance; where it is at most 1, the
 /// third-order solution, whose own error is a smaller power of the substep, is taken
 /// ([`Exprb43::Early`]) and `U3` is not evaluated. In a slide in one direction the
 /// remainder is so small that this is the usual outcome.
@@ -342,7 +342,7 @@ pub(super) fn exprb43<const E: usize>(
     z: &[f64; E],
     f0: &[f64; E],
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
-    early: Option<&EarlyEnd<'_, E>>,
+    early: Option<&EarlyError<'_, E>>,
 ) -> Option<Exprb43<E>> {
     let length = linear.length();
     let phi = |k: usize, j: usize| INVERSE_FACTORIAL[j + k];
@@ -374,8 +374,9 @@ pub(super) fn exprb43<const E: usize>(
             euler[c] += length * whole[c];
             third[c] = euler[c] + 8.0 * length * d2_phi3[c];
         }
-        if third.iter().all(|v| v.is_finite()) && early(&third, &euler) {
-            return Some(Exprb43::Early { third, euler });
+        let error = early(&third, &euler);
+        if third.iter().all(|v| v.is_finite()) && error <= 1.0 {
+            return Some(Exprb43::Early { third, error });
         }
     }
     let mut end = *z;

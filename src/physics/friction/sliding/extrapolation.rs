@@ -358,20 +358,6 @@ impl SlidingStep<'_> {
             .fold(0.0, larger)
     }
 
-    /// Whether [`SlidingStep::error_ratio_of`] is at most 1, without its divisions: a
-    /// test made on every exponential substep, which usually fails where it is made in
-    /// vain.
-    pub(super) fn within_tolerance(
-        &self,
-        (z, best, previous): (&[f64], &[f64], &[f64]),
-        largest: f64,
-    ) -> bool {
-        let floor = ROUNDING * largest;
-        (0..z.len()).all(|c| {
-            (best[c] - previous[c]).abs() <= TOLERANCE * (self.scale + z[c].abs().max(best[c].abs())) + floor
-        })
-    }
-
     /// One extrapolated substep by the method of the step ([`SlidingStep::stiff`]);
     /// `None` if it did not reach the tolerance. Also returns the factor by which the next
     /// substep may grow, the first interior point where an event value was past the

@@ -4,7 +4,9 @@
 //! for the outputs; and the rates and event values (guards) of the states in their modes,
 //! which Model Exchange exposes.
 
-use super::super::group::{GroupInput, GroupLaw, MAX_TOGETHER, Members, closest_points_together};
+use super::super::group::{
+    GroupInput, GroupLaw, MAX_MEMBERS, MAX_TOGETHER, Members, closest_points_together,
+};
 use super::super::{Direction, EVENT_TOLERANCE, MAX_BRANCHES, SliderState};
 use super::{Events, Modes, SlidingStep};
 use crate::physics::state_space::StateVector;
@@ -75,7 +77,8 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// With `damper_changes`, also adds up [`SlidingStep::damper_force_changes`] at the
-    /// states as they come (the prepared ones where nothing was moved).
+    /// states as they come, where nothing was moved (those are then the prepared ones;
+    /// where something was, the caller makes them at the prepared states).
     fn decide_modes(
         &self,
         x: &mut StateVector,
@@ -134,7 +137,9 @@ impl<'a> SlidingStep<'a> {
             }
         }
         self.start_sliding_rate.set(fastest);
-        if let Some(change) = damper_changes {
+        if let Some(change) = damper_changes
+            && !moved
+        {
             outside.add_changes(change);
         }
         if moved {
@@ -242,12 +247,8 @@ struct DampedOutside<'s> {
 
 impl<'s> DampedOutside<'s> {
     const NONE: DampedOutside<'static> = DampedOutside {
-        inputs: [GroupInput {
-            law: &GroupLaw::EMPTY,
-            deflection: [0.0; 2],
-            sticking_rate: [0.0; 2],
-        }; MAX_TOGETHER],
-        trials: [[0.0; 2]; MAX_TOGETHER],
+        inputs: [GroupInput::at_rest(&GroupLaw::EMPTY); MAX_TOGETHER],
+        trials: [[0.0; MAX_MEMBERS]; MAX_TOGETHER],
         utilisations: [0.0; MAX_TOGETHER],
         count: 0,
     };
