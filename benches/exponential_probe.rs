@@ -17,7 +17,13 @@
 //!   evaluations (third order), which a step takes where its difference from exponential
 //!   Euler is within the tolerance; "early/est." is the most its error reached of that
 //!   difference (over steps where the difference is above 1e-13 of the state, ten times
-//!   the reference's own error).
+//!   the reference's own error);
+//! - exprb42 (Luan and Ostermann): `z + h phi1(hJ) f(z) + 32/9 h phi3(hJ) D2` with its
+//!   stage at three quarters, fourth order from two evaluations where `hJ` is small, its
+//!   error estimated against `z + h phi1(hJ) f(z) + 2 h phi3(hJ) D3` from the rates at its
+//!   own end; "42/est." is the most its error reached of that estimate (over steps where
+//!   the estimate is above 1e-13 of the state). A step would take its end, whose rates
+//!   it has made (the next substep's start, or the outputs').
 //!
 //! `J` is the Jacobian of the rates at the start (central differences: its error, near
 //! 1e-10 relative, enters a step as `h^2 dJ f`, below 1e-14 of the states here). A step
@@ -107,6 +113,8 @@ struct Errors {
     exprb43_estimate: f64,
     early: f64,
     early_of_estimate: f64,
+    exprb42: f64,
+    exprb42_of_estimate: f64,
     reference: f64,
     /// Terms of the Taylor series of `phi1(hJ) f` to rounding: the matrix-vector
     /// products a step's phi-functions would take without scaling.
@@ -159,6 +167,7 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     let jacobian = jacobian(tire, &z0, scale);
     let [phi1, _, phi3, phi4] = phi_functions(&(&jacobian * STEP));
     let [half_phi1, ..] = phi_functions(&(&jacobian * (0.5 * STEP)));
+    let [three_quarters_phi1, ..] = phi_functions(&(&jacobian * (0.75 * STEP)));
     // The nonlinear remainder's change from the start: `g(u) - g(z0)`, `g = f - J z`.
     let mut remainder = |u: &DVector<f64>| rates(tire, u) - &f0 - &jacobian * (u - &z0);
 
@@ -174,6 +183,9 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
         &euler + (&phi3 * 16.0 - &phi4 * 48.0) * &d2 * STEP + (&phi3 * -2.0 + &phi4 * 12.0) * &d3 * STEP;
     let embedded = &euler + &phi3 * (&d2 * 16.0 - &d3 * 2.0) * STEP;
     let early = &euler + &phi3 * &d2 * (8.0 * STEP);
+    let stage = &z0 + &three_quarters_phi1 * &f0 * (0.75 * STEP);
+    let exprb42 = &euler + &phi3 * remainder(&stage) * (32.0 / 9.0 * STEP);
+    let exprb42_third = &euler + &phi3 * remainder(&exprb42) * (2.0 * STEP);
 
     // The Co-Simulation step from the same start, in the same modes: where it leaves the
     // fixed-mode reference, a mode changed inside the step.
@@ -192,6 +204,11 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     let early_estimate = (&early - &euler).amax() / scale;
     if early_estimate > 1e-13 {
         errors.early_of_estimate = errors.early_of_estimate.max(error(&early) / early_estimate);
+    }
+    errors.exprb42 = errors.exprb42.max(error(&exprb42));
+    let exprb42_estimate = (&exprb42 - &exprb42_third).amax() / scale;
+    if exprb42_estimate > 1e-13 {
+        errors.exprb42_of_estimate = errors.exprb42_of_estimate.max(error(&exprb42) / exprb42_estimate);
     }
     errors.reference = errors.reference.max(error(&coarser));
     errors.taylor_terms = errors.taylor_terms.max(taylor_terms(&(&jacobian * STEP), &f0));
@@ -212,7 +229,7 @@ fn taylor_terms(x: &DMatrix<f64>, v: &DVector<f64>) -> usize {
 
 fn main() {
     println!(
-        "{:<22} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>11} {:>9} {:>7}",
+        "{:<22} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>11} {:>9} {:>8} {:>9} {:>7}",
         "model, case",
         "steps",
         "events",
@@ -222,6 +239,8 @@ fn main() {
         "estimate",
         "early",
         "early/est.",
+        "exprb42",
+        "42/est.",
         "reference",
         "terms"
     );
@@ -230,7 +249,7 @@ fn main() {
             let e = probe(model, combined);
             let case = if combined { "combined" } else { "lateral" };
             println!(
-                "{:<22} {:>7} {:>7} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>11.1e} {:>9.1e} {:>7}",
+                "{:<22} {:>7} {:>7} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>11.1e} {:>9.1e} {:>8.1e} {:>9.1e} {:>7}",
                 format!("{model:?} {case}"),
                 e.probed,
                 e.with_events,
@@ -240,6 +259,8 @@ fn main() {
                 e.exprb43_estimate,
                 e.early,
                 e.early_of_estimate,
+                e.exprb42,
+                e.exprb42_of_estimate,
                 e.reference,
                 e.taylor_terms
             );
