@@ -297,7 +297,6 @@ fn parameter_errors_name_the_parameter_the_value_and_the_rule() {
     );
 }
 
-/// Random tires: every parameter scaled by a factor from `0.05..20` of its default.
 /// A RingBody whose friction coefficient its load sensitivity takes to zero at its load
 /// (-0.83 at more than twice the nominal load): every limit is zero, so the contact is
 /// frictionless. Its ring's equivalent mass is a few grams (0.4 kg m2 on an 11 m radius)
@@ -406,6 +405,7 @@ fn a_sliding_tire_with_a_fast_ring_takes_long_steps() {
     }
 }
 
+/// Random tires: every parameter scaled by a factor from `0.05..20` of its default.
 fn parameters_strategy() -> impl Strategy<Value = Parameters> {
     scaled_parameters(0.05..20.0)
 }

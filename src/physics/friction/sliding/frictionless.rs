@@ -8,7 +8,6 @@
 //! damper: 1e7/s).
 
 use super::{NotConverged, SlidingStep};
-use crate::physics::friction::SliderState;
 use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::{DrivingVector, StateVector};
 use crate::physics::stepper::{Blocks, StepMap};
@@ -22,17 +21,11 @@ impl SlidingStep<'_> {
     /// The step of `h` seconds of a frictionless contact ([`SlidingStep::frictionless`]):
     /// the model's step map with its elements' states held at zero. Not converged only
     /// where the states would not be finite.
-    pub(super) fn frictionless_step(
-        &self,
-        x: &mut StateVector,
-        sliders: &mut SliderState,
-        h: f64,
-    ) -> Result<(), NotConverged> {
-        let layout = &self.layout;
-        let mut z = layout.pack(x, sliders);
+    pub(super) fn frictionless_step(&self, x: &mut StateVector, h: f64) -> Result<(), NotConverged> {
+        // The branches were emptied where the modes were decided, the elements' states
+        // with them: the map holds those at zero, and the offsets stay as they are.
         let mut system = self.system.clone();
-        for e in layout.elements() {
-            z[e.first..e.first + layout.branches].fill(0.0);
+        for e in self.layout.elements() {
             for j in 0..system.states {
                 system.a[(e.state, j)] = 0.0;
             }
@@ -40,10 +33,9 @@ impl SlidingStep<'_> {
                 system.b[(e.state, k)] = 0.0;
             }
         }
-        let start = layout.unpack(&z, sliders);
         let map = StepMap::new(&system, &Blocks::of(&system), h);
         let ramp = (self.input_rates != DrivingVector::zeros()).then_some(&self.input_rates);
-        let end = map.advance(&start, &self.inputs, ramp);
+        let end = map.advance(x, &self.inputs, ramp);
         if !end.iter().all(|v| v.is_finite()) {
             return Err(NotConverged);
         }
@@ -84,8 +76,8 @@ mod tests {
             let load = load_ratio * p.get(Parameter::NominalLoad);
             with_prepared_step(&p, (vx, load), (&states, inputs), |step, x, sliders, unit| {
                 prop_assert!(step.frictionless());
-                let (mut x_map, mut sliders_map) = (x, sliders);
-                step.frictionless_step(&mut x_map, &mut sliders_map, h).expect("a finite step");
+                let (mut x_map, sliders_map) = (x, sliders);
+                step.frictionless_step(&mut x_map, h).expect("a finite step");
                 let (mut x_whole, mut sliders_whole) = (x, sliders);
                 step.integrate_by_current_method(&mut x_whole, &mut sliders_whole, h).expect("a valid step");
                 prop_assert_eq!(sliders_map, sliders_whole);

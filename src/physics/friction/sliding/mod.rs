@@ -438,7 +438,7 @@ impl<'a> SlidingStep<'a> {
         self.high_order_found.set(NOT_CARRIED);
         self.exponential_misses.set(0);
         if self.frictionless() {
-            return self.frictionless_step(x, sliders, h);
+            return self.frictionless_step(x, h);
         }
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.

@@ -106,14 +106,15 @@ impl<'a> SlidingStep<'a> {
         let states = layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut fastest = 0.0_f64;
-        let mut outside = DampedOutside::NONE;
+        // Gathered only where the changes are asked for.
+        let mut outside = damper_changes.is_some().then_some(DampedOutside::NONE);
         for slot in self.slots() {
             let input = self.slot_input(slot, &states, &rates, &z);
             let sliding = if input.damped() {
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
                 inside &= utilisation < 1.0;
-                if damper_changes.is_some() {
+                if let Some(outside) = outside.as_mut() {
                     outside.add(&input, trial, utilisation);
                 }
                 utilisation > 1.0
@@ -137,7 +138,7 @@ impl<'a> SlidingStep<'a> {
             }
         }
         self.start_sliding_rate.set(fastest);
-        if let Some(change) = damper_changes
+        if let (Some(change), Some(outside)) = (damper_changes, outside)
             && !moved
         {
             outside.add_changes(change);
