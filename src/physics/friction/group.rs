@@ -245,6 +245,25 @@ pub fn closest_points_together(
     points
 }
 
+/// [`closest_points_together`] of the groups `j` with `which[j]` only (each trial force's
+/// utilisation above zero), by slot: zero for the others.
+pub fn closest_points_where(
+    inputs: &[GroupInput],
+    trials: &[Members; MAX_TOGETHER],
+    utilisations: &[f64; MAX_TOGETHER],
+    which: &[bool; MAX_TOGETHER],
+) -> [Members; MAX_TOGETHER] {
+    let count = inputs.len().min(MAX_TOGETHER);
+    let lambdas = multipliers_together(&inputs[..count], trials, utilisations, which);
+    let mut points = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
+    for j in 0..count {
+        if which[j] {
+            points[j] = inputs[j].projected(&trials[j], lambdas[j]);
+        }
+    }
+    points
+}
+
 /// The multipliers of [`GroupInput::closest_point`] of the groups `j` with `which[j]`, by
 /// rounds of Newton steps over the searches still going on (zero for the others).
 fn multipliers_together(
@@ -474,6 +493,25 @@ impl<'a> GroupInput<'a> {
         force
     }
 
+    /// Whether its sticking force is outside its ellipse: the mode in which a damped group
+    /// slides.
+    pub fn outside(&self) -> bool {
+        self.utilisation(&self.sticking_force()) > 1.0
+    }
+
+    /// The share of its sticking force's utilisation in its lesser direction where that
+    /// force is outside the ellipse (how far the slide is from one direction), else zero.
+    pub fn lesser_share(&self) -> f64 {
+        let trial = self.sticking_force();
+        let shares = [0, 1].map(|k| (trial[k] * self.inverse_limit[k]).powi(2));
+        let utilisation = shares[0] + shares[1];
+        if utilisation > 1.0 {
+            shares[0].min(shares[1]) / utilisation
+        } else {
+            0.0
+        }
+    }
+
     /// How fast the group moves its force while it slides, 1/s: springs turn it across
     /// the ellipse at about their sticking force rate, `sum |K_k g_k| / L_k`; spring-dampers
     /// relax at `max K_k / Dw_k`. (The explicit integration's substeps stay below a few of
@@ -487,6 +525,22 @@ impl<'a> GroupInput<'a> {
             self.members()
                 .map(|k| (self.stiffness[k] * self.sticking_rate[k] * self.inverse_limit[k]).abs())
                 .sum()
+        }
+    }
+
+    /// [`GroupInput::evaluate`] of a damped group whose trial force `trial` (with its
+    /// utilisation, above 1) has its closest point `point` made already: the same values.
+    pub fn damped_evaluated(
+        &self,
+        sliding: bool,
+        trial: Members,
+        utilisation: f64,
+        point: &Members,
+    ) -> GroupOutput {
+        if sliding {
+            self.damped_sliding(*point, utilisation)
+        } else {
+            self.damped_sticking(trial, utilisation)
         }
     }
 

@@ -7,7 +7,7 @@ mod step;
 
 pub use step::StepError;
 
-use super::friction::sliding::{Preparation, SlidingStep};
+use super::friction::sliding::{LimitChanges, Preparation, SlidingStep};
 use super::friction::{Friction, HighOrderSubsteps, Limits, NOT_CARRIED, SliderState};
 use super::load::OperatingPoint;
 use super::load::{InverseLengthFactors, LoadLaw};
@@ -553,16 +553,27 @@ fn shaped_outputs(
     u: &DrivingVector,
 ) -> (OutputVector, Option<Preparation>) {
     let (mut x, mut sliders) = (*x, *sliders);
-    let (change, preparation) = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
-    let mut y = step.system.outputs(&x, u);
+    let (changes, preparation) = step.prepare_with_damper_force_changes(&mut x, &mut sliders);
+    (outputs_with_changes(step, &x, u, &changes), preparation)
+}
+
+/// The outputs at states `x` with what the limits take off each element's force
+/// (`changes`, by direction) added to the forces it feeds.
+fn outputs_with_changes(
+    step: &SlidingStep,
+    x: &StateVector,
+    u: &DrivingVector,
+    changes: &LimitChanges,
+) -> OutputVector {
+    let mut y = step.system.outputs(x, u);
     for (d, element) in step.friction.elements.iter().enumerate() {
         if let Some(element) = element
-            && change[d] != 0.0
+            && changes[d] != 0.0
         {
             for (output, coefficient) in element.force_outputs {
-                y[output as usize] += coefficient * change[d];
+                y[output as usize] += coefficient * changes[d];
             }
         }
     }
-    (y, preparation)
+    y
 }

@@ -25,7 +25,7 @@
 
 use std::fmt;
 
-use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire, shaped_outputs};
+use super::{ContactMode, LIFT_OFF_RELAXATION_TIME, Tire, outputs_with_changes, shaped_outputs};
 use crate::physics::friction::separable::SeparableStep;
 use crate::physics::friction::sliding::SlidingStep;
 use crate::physics::friction::{Friction, Limits, LinearStep};
@@ -175,22 +175,32 @@ impl Tire {
                                 );
                                 // A step from where the last one ended, with nothing
                                 // changed since: its outputs decided the modes here.
-                                match prepared.filter(|(key, _)| key.same_as(&made_for)) {
-                                    Some((_, prepared)) => sliding_step.prepare_from(&mut sliders, &prepared),
-                                    None => {
-                                        sliding_step.prepare(&mut end, &mut sliders);
+                                let shaped_end = match prepared.filter(|(key, _)| key.same_as(&made_for)) {
+                                    Some((_, prepared)) => {
+                                        sliding_step.prepare_from(&mut sliders, &prepared);
+                                        sliding_step.integrate(&mut end, &mut sliders, h)
                                     }
+                                    None => sliding_step.prepare_and_integrate(&mut end, &mut sliders, h),
                                 }
-                                sliding_step
-                                    .integrate(&mut end, &mut sliders, h)
-                                    .map_err(|_| StepError::NotConverged)?;
+                                .map_err(|_| StepError::NotConverged)?;
                                 // Damped forces are shaped by their limits: the outputs
                                 // at the end from this step's system and limits, which
-                                // are those they are otherwise made from on demand.
+                                // are those they are otherwise made from on demand (from
+                                // the step's last evaluation where that was at the end).
                                 if !ramping && friction_damped {
                                     let outputs;
-                                    (outputs, preparation) =
-                                        shaped_outputs(&sliding_step, &end, &sliders, u0);
+                                    (outputs, preparation) = match shaped_end {
+                                        Some(shaped_end) => (
+                                            outputs_with_changes(
+                                                &sliding_step,
+                                                &end,
+                                                u0,
+                                                &shaped_end.changes,
+                                            ),
+                                            Some(shaped_end.preparation),
+                                        ),
+                                        None => shaped_outputs(&sliding_step, &end, &sliders, u0),
+                                    };
                                     shaped = Some(outputs);
                                 }
                                 (end, sliders, Some(sliding_step.high_order_substeps()))

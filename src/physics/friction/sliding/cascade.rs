@@ -33,10 +33,13 @@
 //! from its start ([`super::SlidingStep::integrate`]).
 
 use super::events::{InteriorSearch, NEAR_EVENT};
-use super::exponential::{Exprb43, LinearPart, exprb43, negligible_term, resize};
+use super::exponential::{Exprb43, LinearPart, exponential_euler, exprb43, negligible_term, resize};
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
-use super::{Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, SliderState, SlidingStep, Slot, Vector};
+use super::modes::{LimitChanges, ShapedSlots};
+use super::{
+    Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, STIFF_STEP, SliderState, SlidingStep, Slot, Vector,
+};
 use crate::physics::friction::group::{
     GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
 };
@@ -96,6 +99,39 @@ fn clear(event: f64) -> bool {
     event <= -NEAR_EVENT
 }
 
+/// Below this share of its utilisation in its lesser direction, a damped group slides
+/// in one direction: its force hardly turns on the ellipse, and exponential Euler is
+/// within the tolerance (DDT's slide yardstick: the lateral case's shares are 1e-6 to
+/// 1e-3 and Euler is taken; the combined case's 1e-3 to 0.5, where it would not be).
+const ONE_DIRECTION_SHARE: f64 = 1e-3;
+
+/// Whether every group of `inputs` whose sticking force is outside its ellipse has at
+/// most [`ONE_DIRECTION_SHARE`] of its utilisation in its lesser direction.
+fn in_one_direction(inputs: &[GroupInput]) -> bool {
+    inputs
+        .iter()
+        .all(|input| input.lesser_share() <= ONE_DIRECTION_SHARE)
+}
+
+/// How a cascade step starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Start {
+    /// From the modes prepared ([`SlidingStep::prepare`]), and whether a sliding group
+    /// there turns its force far faster than the step.
+    Prepared { stiff: bool },
+    /// The step decides the modes: each group's from its sticking force at the start, as
+    /// the cascade evaluates it ([`SlidingStep::cascade_decides`]).
+    Undecided,
+}
+
+/// The step's end where its last evaluation was made as the outputs are: the states
+/// and branches there, and what the damped groups' limits take off their sticking forces.
+struct ShapedAt {
+    x: StateVector,
+    sliders: SliderState,
+    changes: LimitChanges,
+}
+
 /// `t phi1(mu t) = (exp(mu t) - 1) / mu`, and `t` where `mu = 0`.
 fn q_at(mu: f64, t: f64) -> f64 {
     let x = mu * t;
@@ -103,20 +139,24 @@ fn q_at(mu: f64, t: f64) -> f64 {
 }
 
 impl SlidingStep<'_> {
-    /// The step of `h` seconds group by group (see the module's doc): true with `x` and
-    /// `sliders` at its end, false (both unchanged) where it is left to the whole-system
-    /// path.
+    /// The step of `h` seconds group by group (see the module's doc): with `x` and
+    /// `sliders` at its end, and what the damped groups' limits take off their sticking
+    /// forces there where its last evaluation was at its end, made as the outputs make it
+    /// ([`SlidingStep::shaped_evaluation`]); `None` (both unchanged) where it is left to
+    /// the whole-system path.
     pub(super) fn cascade_step(
         &self,
         x: &mut StateVector,
         sliders: &mut SliderState,
         h: f64,
-        stiff: bool,
-    ) -> bool {
-        let Some(cascade) = self.cascade() else {
-            return false;
-        };
-        let (z, modes) = (self.layout.pack(x, sliders), sliders.sliding);
+        start: Start,
+    ) -> Option<Option<LimitChanges>> {
+        let cascade = self.cascade()?;
+        let deciding = start == Start::Undecided;
+        if deciding && !self.cascade_decides() {
+            return None;
+        }
+        let (z, mut modes) = (self.layout.pack(x, sliders), sliders.sliding);
         let states = self.layout.model_states(&z);
         let largest = largest_of(&z);
         let slots = self.slots();
@@ -131,9 +171,13 @@ impl SlidingStep<'_> {
         let mut q_end = [None; 2];
         for &j in &cascade.drivers[..cascade.driver_count] {
             let slot = &slots[j];
-            let sliding = modes[slot.group][slot.branch];
             let entry = slot.entries[0];
-            let start = self.driver_input(slot, z[entry]).evaluate(sliding);
+            let input = self.driver_input(slot, z[entry]);
+            if deciding {
+                modes[slot.group][slot.branch] = input.outside();
+            }
+            let sliding = modes[slot.group][slot.branch];
+            let start = input.evaluate(sliding);
             let mu = if sliding {
                 -slot.law.stiffness[0] / slot.law.damping[0]
             } else {
@@ -147,7 +191,7 @@ impl SlidingStep<'_> {
                     sum.rate[mode] = mu;
                     *q_end[mode].insert(q_at(mu, h))
                 }
-                Some(_) if (sum.rate[mode] - mu).abs() > 4.0 * f64::EPSILON * mu.abs() => return false,
+                Some(_) if (sum.rate[mode] - mu).abs() > 4.0 * f64::EPSILON * mu.abs() => return None,
                 Some(q) => q,
             };
             sum.by_mode[mode] += self.layout.weights[slot.branch] * start.rate[0];
@@ -161,24 +205,82 @@ impl SlidingStep<'_> {
             // Sliding, its limit's side must stay the same too, or it passed inside.
             let same_side = !sliding || start.force[0] * finish.sticking_force()[0] > 0.0;
             if !(clear(start.event) && clear(finish_event) && same_side) {
-                return false;
+                return None;
             }
         }
         // A mode no driver is in has `mu = 0`: `q(h) = h`.
         sum.end = q_end.map(|q| q.unwrap_or(h));
-        let Some(driven) = self.driven_step(&cascade, (&z, &modes), &sum, (h, largest, stiff)) else {
-            return false;
+        let (driven, shaped) = match DrivenGroups::new(self, &cascade, modes, &sum) {
+            Some(mut groups) => {
+                let w = groups.start(&end);
+                if deciding {
+                    groups.decide(&w);
+                    modes = groups.modes;
+                }
+                let stiff = match start {
+                    Start::Prepared { stiff } => stiff,
+                    Start::Undecided => h * self.fastest_sliding_rate(&modes) > STIFF_STEP,
+                };
+                self.driven_step(&cascade, &groups, w, (&end, sliders), (h, largest, stiff))?
+            }
+            // No planar group has a member (no limit in either direction): nothing to step.
+            None => ([0.0; DRIVEN], None),
         };
+        Some(match shaped {
+            Some(ShapedAt {
+                x: end_x,
+                sliders: end_sliders,
+                changes,
+            }) => {
+                (*x, *sliders) = (end_x, end_sliders);
+                Some(changes)
+            }
+            None => {
+                (*x, *sliders) = self.whole_end(&cascade, (&end, &modes, sliders), &driven);
+                None
+            }
+        })
+    }
+
+    /// The states and branches at the end `driven` of the driven groups, with the
+    /// drivers' ends in `end` and the modes `modes` (the offsets of `sliders` replaced).
+    fn whole_end(
+        &self,
+        cascade: &Cascade,
+        (end, modes, sliders): (&Vector, &Modes, &SliderState),
+        driven: &Driven,
+    ) -> (StateVector, SliderState) {
+        let mut end = *end;
         for (n, &j) in cascade.driven[..cascade.driven_count].iter().enumerate() {
-            let slot = &slots[j];
+            let slot = &self.slots()[j];
             for m in slot.law.members() {
                 end[slot.entries[m]] = driven[entry(n, m)];
             }
         }
-        self.hold_on_limits(&mut end, &modes);
-        *x = self.layout.unpack(&end, sliders);
-        sliders.sliding = modes;
-        true
+        self.hold_on_limits(&mut end, modes);
+        let mut end_sliders = *sliders;
+        let end_x = self.layout.unpack(&end, &mut end_sliders);
+        end_sliders.sliding = *modes;
+        (end_x, end_sliders)
+    }
+
+    /// Whether a cascade step may decide the modes at its start itself: every group is
+    /// damped (it slides where its sticking force is outside its ellipse, and nothing is
+    /// put on a limit) and every limit is above zero (no deflection is dropped), so that
+    /// preparing the step would move nothing. A group the cascade finds near its limit
+    /// there is not clear of its event, and the step is left to the prepared path.
+    fn cascade_decides(&self) -> bool {
+        self.limits.0.iter().all(|&limit| limit > 0.0) && self.slots().iter().all(|slot| slot.law.damped())
+    }
+
+    /// The fastest of the sliding groups' [`GroupInput::sliding_rate`] in `modes`, as
+    /// preparing finds it.
+    fn fastest_sliding_rate(&self, modes: &Modes) -> f64 {
+        self.slots()
+            .iter()
+            .filter(|slot| modes[slot.group][slot.branch])
+            .map(|slot| GroupInput::at_rest(&slot.law).sliding_rate())
+            .fold(0.0, f64::max)
     }
 
     /// The cascade of this step's slots, if the model's elements form one
@@ -225,31 +327,22 @@ impl SlidingStep<'_> {
     }
 
     /// The driven groups over the step, side by side, in substeps of one length: by
-    /// exprb43 ([`DrivenLinearPart`]), or for a stiff slide by linearly implicit Euler
-    /// extrapolation, whose solves take each group's own two by two. The driven vector at
-    /// the end, or `None` if a group nears its event or they need more than
-    /// [`MAX_SUBSTEPS`].
+    /// exponential Euler where the slide is in one direction and that is within the
+    /// tolerance, else by exprb43 ([`DrivenLinearPart`]), or for a stiff slide by
+    /// linearly implicit Euler extrapolation, whose solves take each group's own two by
+    /// two. The driven vector at the end, or `None` if a group nears its event or they
+    /// need more than [`MAX_SUBSTEPS`]. With the end, what the limits take off the
+    /// groups' sticking forces there where the last substep's end was evaluated as the
+    /// outputs are made (an exponential Euler substep's, [`SlidingStep::shaped_evaluation`]).
     fn driven_step(
         &self,
         cascade: &Cascade,
-        (z, modes): (&Vector, &Modes),
-        sum: &DriverSum,
+        groups: &DrivenGroups,
+        mut w: Driven,
+        (z, sliders): (&Vector, &SliderState),
         (h, largest, stiff): (f64, f64, bool),
-    ) -> Option<Driven> {
-        // No planar group has a member (no limit in either direction): nothing to step.
-        let Some(groups) = DrivenGroups::new(self, cascade, modes, sum) else {
-            return Some([0.0; DRIVEN]);
-        };
-        // Each group's pair whole (a missing member's zero), as its evaluation reads it.
-        let mut w = [0.0; DRIVEN];
-        for (n, slot) in groups.slots().enumerate() {
-            let second = if slot.law.count > 1 {
-                z[slot.entries[1]]
-            } else {
-                0.0
-            };
-            w[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&[z[slot.entries[0]], second]);
-        }
+    ) -> Option<(Driven, Option<ShapedAt>)> {
+        let modes = &groups.modes;
         // The explicit substeps stay as short as the whole system's exponential ones, so
         // that their samples of the event values are as close; the implicit ones try the
         // whole step first, as there.
@@ -261,13 +354,27 @@ impl SlidingStep<'_> {
                 .flatten()
                 .all(|&event| event == NO_EVENT || clear(event))
         };
+        // Over the groups' deflections: the `q`s are exact.
+        let deflections = entry(groups.count(), 0);
+        // The evaluation where the last substep ended, where an exponential Euler substep
+        // made it (its end's), and what the limits take off the forces there where that
+        // was the step's end.
+        let mut evaluated = None;
+        let mut end_shaped = None;
         // Each pass evaluates where the last substep ended (the last pass only the event
         // values there), so the loop has a pass more than the substeps.
         for _ in 0..=MAX_SUBSTEPS {
             if t >= h {
-                return all_clear(&groups.events(&w)).then_some(w);
+                // An Euler substep's end was evaluated, its events clear there.
+                if evaluated.is_some() {
+                    return Some((w, end_shaped));
+                }
+                return all_clear(&groups.events(&w)).then_some((w, None));
             }
-            let (rates, events, inputs) = groups.evaluate(&w);
+            let (rates, events) = evaluated.take().unwrap_or_else(|| groups.evaluate(&w));
+            // Made again where they are used, not carried with the rates.
+            let (inputs, _) = groups.inputs(&w);
+            end_shaped = None;
             if !all_clear(&events) {
                 return None;
             }
@@ -279,26 +386,69 @@ impl SlidingStep<'_> {
             }
             let slopes = groups.slopes(&inputs, &rates);
             let (end, factor) = if stiff {
-                match self.driven_implicit_substep(&groups, (t, &w), (&rates, &events), &slopes, length) {
+                match self.driven_implicit_substep(groups, (t, &w), (&rates, &events), &slopes, length) {
                     Implicit::Taken(end, growth) => (Some(end), growth),
                     Implicit::Shorter => (None, 0.25),
                     Implicit::NearEvent => return None,
                 }
             } else {
                 let linear = groups.linear_part(&slopes, length, negligible_term(self.scale, largest));
-                let mut search = InteriorSearch::new(&events);
-                let stage_rates = |stage: usize, u: &Driven| {
-                    let (rates, events, _) = groups.evaluate(u);
-                    search.sample(stage, 0.5 * length, &events);
-                    (stage == 1 || search.found() == (None, None)).then_some(rates)
-                };
-                // Over the groups' deflections: the `q`s are exact.
-                let deflections = entry(groups.count(), 0);
                 let error_of = |best: &Driven, previous: &Driven| {
                     self.error_ratio_of(
                         (&w[..deflections], &best[..deflections], &previous[..deflections]),
                         largest,
                     )
+                };
+                if in_one_direction(&inputs[..groups.count()]) {
+                    let last = t + length >= h;
+                    let mut search = InteriorSearch::new(&events);
+                    let mut at_end = None;
+                    let mut shaped = None;
+                    let middle = |u: &Driven| {
+                        search.sample(1, 0.5 * length, &groups.events(u));
+                        (search.found() == (None, None)).then_some(())
+                    };
+                    let end_rates = |u: &Driven| {
+                        // The step's end: evaluated from its states and branches, as the
+                        // outputs are made, so that they come from this evaluation.
+                        let evaluation = if last {
+                            let (end_x, end_sliders) = self.whole_end(cascade, (z, modes, sliders), u);
+                            self.shaped_evaluation(&end_x, &end_sliders, |slots, changes| {
+                                shaped = Some(ShapedAt {
+                                    x: end_x,
+                                    sliders: end_sliders,
+                                    changes,
+                                });
+                                groups.laid_out(cascade, slots, u)
+                            })
+                        } else {
+                            groups.evaluate(u)
+                        };
+                        let rates = evaluation.0;
+                        at_end = Some(evaluation);
+                        Some(rates)
+                    };
+                    let euler = exponential_euler(&linear, &w, &rates, middle, end_rates, &error_of);
+                    if let (Some((end, error)), Some(evaluation)) = (euler, at_end) {
+                        search.sample(2, 0.5 * length, &evaluation.1);
+                        if search.found() != (None, None) {
+                            return None;
+                        }
+                        if error <= 1.0 {
+                            (w, t, taken) = (end, t + length, taken + 1);
+                            (evaluated, end_shaped) = (Some(evaluation), shaped);
+                            length *= resize(error).1;
+                            continue;
+                        }
+                    } else if search.found() != (None, None) {
+                        return None;
+                    }
+                }
+                let mut search = InteriorSearch::new(&events);
+                let stage_rates = |stage: usize, u: &Driven| {
+                    let (rates, events) = groups.evaluate(u);
+                    search.sample(stage, 0.5 * length, &events);
+                    (stage == 1 || search.found() == (None, None)).then_some(rates)
                 };
                 match exprb43(&linear, &w, &rates, stage_rates, Some(&error_of))? {
                     Exprb43::Full { fourth, third } => {
@@ -323,7 +473,7 @@ impl SlidingStep<'_> {
                 // event there: at the step's end that is the check, with no evaluation
                 // more. (The implicit rows sample inside.)
                 if !stiff && t >= h {
-                    return Some(w);
+                    return Some((w, None));
                 }
             }
             length *= factor;
@@ -362,7 +512,7 @@ impl SlidingStep<'_> {
             for k in 0..n {
                 if k > 0 {
                     let at_events;
-                    (at_rates, at_events, _) = groups.evaluate(&current);
+                    (at_rates, at_events) = groups.evaluate(&current);
                     search.sample(k, s, &at_events);
                 }
                 for (g, inverse) in inverses[..groups.count()].iter().enumerate() {
@@ -414,7 +564,7 @@ enum Implicit {
 struct DrivenGroups<'s> {
     slots: [&'s Slot; MAX_BRANCHES],
     count: usize,
-    modes: &'s Modes,
+    modes: Modes,
     drive: [Members; MAX_BRANCHES],
     coupling: [Members; MAX_BRANCHES],
     sum: &'s DriverSum,
@@ -422,7 +572,7 @@ struct DrivenGroups<'s> {
 
 impl<'s> DrivenGroups<'s> {
     /// `None` where there are none.
-    fn new(step: &'s SlidingStep, cascade: &Cascade, modes: &'s Modes, sum: &'s DriverSum) -> Option<Self> {
+    fn new(step: &'s SlidingStep, cascade: &Cascade, modes: Modes, sum: &'s DriverSum) -> Option<Self> {
         let all = step.slots();
         let driven = &cascade.driven[..cascade.driven_count];
         let mut groups = DrivenGroups {
@@ -447,6 +597,30 @@ impl<'s> DrivenGroups<'s> {
 
     fn count(&self) -> usize {
         self.count
+    }
+
+    /// The driven vector at the step's start `z`: each group's pair whole (a missing
+    /// member's zero), as its evaluation reads it, and the `q`s zero.
+    fn start(&self, z: &Vector) -> Driven {
+        let mut w = [0.0; DRIVEN];
+        for (n, slot) in self.slots().enumerate() {
+            let second = if slot.law.count > 1 {
+                z[slot.entries[1]]
+            } else {
+                0.0
+            };
+            w[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&[z[slot.entries[0]], second]);
+        }
+        w
+    }
+
+    /// Each group's mode at `w` as the hybrid system decides a damped group's: sliding
+    /// where its sticking force is outside its ellipse ([`SlidingStep::cascade_decides`]).
+    fn decide(&mut self, w: &Driven) {
+        let (inputs, _) = self.inputs(w);
+        for (n, slot) in self.slots[..self.count].iter().enumerate() {
+            self.modes[slot.group][slot.branch] = inputs[n].outside();
+        }
     }
 
     fn slots(&self) -> impl Iterator<Item = &'s Slot> + '_ {
@@ -492,8 +666,7 @@ impl<'s> DrivenGroups<'s> {
 
     /// Every driven group's rates and event value at `w`, evaluated side by side (their
     /// projections' Newton steps overlap), with their inputs there.
-    fn evaluate(&self, w: &Driven) -> (Driven, Events, [GroupInput<'s>; MAX_BRANCHES]) {
-        let sum = self.sum;
+    fn evaluate(&self, w: &Driven) -> (Driven, Events) {
         let (inputs, sliding) = self.inputs(w);
         let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
         let count = self.count;
@@ -504,10 +677,30 @@ impl<'s> DrivenGroups<'s> {
             rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&outputs[n].rate);
             events[slot.group][slot.branch] = outputs[n].event;
         }
-        // The pair whole, as [`DrivenLinearPart::times`] reads it.
-        let q_rates = [1.0 + sum.rate[0] * w[Q[0]], 1.0 + sum.rate[1] * w[Q[1]]];
-        rates[Q[0]..=Q[1]].copy_from_slice(&q_rates);
-        (rates, events, inputs)
+        rates[Q[0]..=Q[1]].copy_from_slice(&self.q_rates(w));
+        (rates, events)
+    }
+
+    /// The `q`s' rates at `w`, `dq/dt = 1 + mu q`, the pair whole (as
+    /// [`DrivenLinearPart::times`] reads it).
+    fn q_rates(&self, w: &Driven) -> [f64; 2] {
+        let rate = self.sum.rate;
+        [1.0 + rate[0] * w[Q[0]], 1.0 + rate[1] * w[Q[1]]]
+    }
+
+    /// [`DrivenGroups::evaluate`] at the driven vector `w` from every slot there as
+    /// [`SlidingStep::shaped_evaluation`] found it: the driven groups' rates and event
+    /// values laid out as it lays them out.
+    fn laid_out(&self, cascade: &Cascade, shaped: &ShapedSlots, w: &Driven) -> (Driven, Events) {
+        let mut rates = [0.0; DRIVEN];
+        let mut events: Events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
+        for (n, (slot, &j)) in self.slots().zip(&cascade.driven[..self.count]).enumerate() {
+            let output = shaped.output(j, self.modes[slot.group][slot.branch]);
+            rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&output.rate);
+            events[slot.group][slot.branch] = output.event;
+        }
+        rates[Q[0]..=Q[1]].copy_from_slice(&self.q_rates(w));
+        (rates, events)
     }
 
     /// Each group's [`Slopes`] at its `inputs` there, whose rates are `rates`
@@ -626,6 +819,8 @@ mod tests {
         /// modes: DDT sliding laterally or in both directions with either law, from a
         /// slide as the tire meets it, over steps of 0.1 to 20 ms; and the stiff light
         /// tire (Calpha = Ckappa = 1e7, sigma 0.05 m, a load of 50 to 200 N) the same.
+        /// What it finds the limits take off the forces at its end is what the outputs'
+        /// projections there find, bit for bit.
         #[test]
         fn a_cascade_step_ends_where_the_whole_system_path_does(
             law in prop::sample::select(vec![FrictionLaw::Coulomb, FrictionLaw::Brush]),
@@ -653,7 +848,13 @@ mod tests {
             with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
             let stiff = h * step.start_sliding_rate.get() > super::super::STIFF_STEP;
             let (mut x_cascade, mut sliders_cascade) = (x, sliders);
-            prop_assume!(step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, stiff));
+            let changes = step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, super::Start::Prepared { stiff });
+            prop_assume!(changes.is_some());
+            // What the limits take off the sticking forces at the end, where the step's
+            // last evaluation was there: the outputs' own projections there, the same bits.
+            if let Some(Some(changes)) = changes {
+                prop_assert_eq!(changes, step.damper_force_changes(&x_cascade, &sliders_cascade));
+            }
             let (mut x_whole, mut sliders_whole) = (x, sliders);
             step.stiff.set(stiff);
             step.exponential_declined.set(false);

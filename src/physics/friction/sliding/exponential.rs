@@ -325,6 +325,68 @@ pub(super) enum Exprb43<const E: usize> {
 /// the early end of [`exprb43`]: the third-order solution and exponential Euler's.
 pub(super) type EarlyError<'a, const E: usize> = dyn Fn(&[f64; E], &[f64; E]) -> f64 + 'a;
 
+/// `1/(j + k)!`, the weight of `X^j` in `phi_k(X)`.
+fn phi(k: usize, j: usize) -> f64 {
+    INVERSE_FACTORIAL[j + k]
+}
+
+/// `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates (`z` with its rates `f0`).
+fn remainder<const E: usize>(
+    linear: &impl LinearPart<E>,
+    (z, f0): (&[f64; E], &[f64; E]),
+    u: &[f64; E],
+    rates: &[f64; E],
+) -> [f64; E] {
+    let mut moved = [0.0; E];
+    for c in 0..E {
+        moved[c] = u[c] - z[c];
+    }
+    let linear_part = linear.times(&moved);
+    let length = linear.length();
+    let mut d = [0.0; E];
+    for c in 0..E {
+        d[c] = rates[c] - f0[c] - linear_part[c] / length;
+    }
+    d
+}
+
+/// One exponential Euler substep of `X = H J` from `z` with its rates `f0`,
+/// `z' = z + H phi1(X) f(z)`, with its error estimated from the rates at its own end:
+/// exprb32's third-order solution `z' + 2 H phi3(X) D3`, `D3 = N(z') - N(z)`, differs
+/// from it by about Euler's error (as [`Exprb43::Early`]'s does, from a stage at the
+/// middle). Where a slide turns its force so little that Euler is within the
+/// tolerance, its end is taken, and the evaluation there (which a caller may make as the
+/// outputs are made) serves the next substep's start: one evaluation a substep.
+///
+/// `middle(u)` is given `z + H/2 phi1(X/2) f(z)`, half the substep on (for its event
+/// values); `end_rates(z')` gives the rates at the end. Returns the end and `error(third,
+/// end)`, the estimate relative to the tolerance; `None` where a series would be long, a
+/// value is not finite, or a callback gives up.
+pub(super) fn exponential_euler<const E: usize>(
+    linear: &impl LinearPart<E>,
+    z: &[f64; E],
+    f0: &[f64; E],
+    mut middle: impl FnMut(&[f64; E]) -> Option<()>,
+    mut end_rates: impl FnMut(&[f64; E]) -> Option<[f64; E]>,
+    error: &EarlyError<'_, E>,
+) -> Option<([f64; E], f64)> {
+    let length = linear.length();
+    let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
+    let (mut at_middle, mut end) = (*z, *z);
+    for c in 0..E {
+        at_middle[c] += 0.5 * length * half[c];
+        end[c] += length * whole[c];
+    }
+    middle(&at_middle)?;
+    let d3 = remainder(linear, (z, f0), &end, &end_rates(&end)?);
+    let [d3_phi3] = linear.series(&d3, |j| [phi(3, j)])?;
+    let mut third = end;
+    for c in 0..E {
+        third[c] += 2.0 * length * d3_phi3[c];
+    }
+    (end.iter().chain(&third).all(|v| v.is_finite())).then(|| (end, error(&third, &end)))
+}
+
 /// One exprb43 substep of `X = H J` ([`Linearisation`]) from `z` with its rates `f0`
 /// (see the module's doc), or `None` where a series would be long, a value is not
 /// finite, or `stage_rates` gives up. `stage_rates(k, u)` gives the rates at `U2`
@@ -345,22 +407,9 @@ pub(super) fn exprb43<const E: usize>(
     early: Option<&EarlyError<'_, E>>,
 ) -> Option<Exprb43<E>> {
     let length = linear.length();
-    let phi = |k: usize, j: usize| INVERSE_FACTORIAL[j + k];
     // phi1(X) f and phi1(X/2) f from one series.
     let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
-    // `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates.
-    let remainder = |u: &[f64; E], rates: &[f64; E]| {
-        let mut moved = [0.0; E];
-        for c in 0..E {
-            moved[c] = u[c] - z[c];
-        }
-        let linear_part = linear.times(&moved);
-        let mut d = [0.0; E];
-        for c in 0..E {
-            d[c] = rates[c] - f0[c] - linear_part[c] / length;
-        }
-        d
-    };
+    let remainder = |u: &[f64; E], rates: &[f64; E]| remainder(linear, (z, f0), u, rates);
     let mut middle = *z;
     for c in 0..E {
         middle[c] += 0.5 * length * half[c];

@@ -249,6 +249,12 @@ pub struct SlidingSlots {
     pub(super) count: usize,
 }
 
+/// Whether `a` and `b` hold the same bits: one pass without a branch (an array
+/// comparison is a call to `memcmp`, which stalls on the stores just made).
+fn same_bits(a: &[u64], b: &[u64]) -> bool {
+    a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x ^ y)) == 0
+}
+
 impl Friction {
     /// Makes [`Friction::sliding_slots`] for a step of `system` at `limits`, unless they
     /// were made for the same.
@@ -264,7 +270,7 @@ impl Friction {
         let laid_out = &self.sliding_slots;
         if laid_out.layout.states != system.states {
             self.sliding_slots.layout = Layout::new(self, system.states);
-        } else if made_for == laid_out.made_for {
+        } else if same_bits(&made_for, &laid_out.made_for) {
             return;
         } else if (0..Direction::COUNT)
             .all(|d| (f64::from_bits(laid_out.made_for[d]) > 0.0) == (limits.0[d] > 0.0))

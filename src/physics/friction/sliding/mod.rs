@@ -65,7 +65,7 @@ mod modes;
 
 pub use layout::SlidingSlots;
 use layout::{Layout, Slot};
-pub use modes::Preparation;
+pub use modes::{LimitChanges, Preparation, ShapedEnd};
 
 use std::cell::Cell;
 
@@ -420,7 +420,8 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// Integrates over `h` seconds from `x` and `sliders`; on success both hold the end
-    /// of the step. By the cascade where it takes the step ([`cascade`]); otherwise
+    /// of the step, and where the step's last evaluation was at its end, what shapes the
+    /// outputs there ([`ShapedEnd`]). By the cascade where it takes the step ([`cascade`]); otherwise
     /// explicitly first. A step the explicit method cannot finish (a stiff slide) is
     /// taken again from its start by the linearly implicit method, and one whose sliding
     /// groups move their forces within a fraction of the step (as
@@ -430,7 +431,7 @@ impl<'a> SlidingStep<'a> {
         x: &mut StateVector,
         sliders: &mut SliderState,
         h: f64,
-    ) -> Result<(), NotConverged> {
+    ) -> Result<Option<ShapedEnd>, NotConverged> {
         self.stiff.set(false);
         self.exponential_declined.set(false);
         self.high_order_declined.set(false);
@@ -438,21 +439,38 @@ impl<'a> SlidingStep<'a> {
         self.high_order_found.set(NOT_CARRIED);
         self.exponential_misses.set(0);
         if self.frictionless() {
-            return self.frictionless_step(x, h);
+            return self.frictionless_step(x, h).map(|()| None);
         }
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
-        if self.cascade_step(x, sliders, h, crawls) {
-            return Ok(());
+        if let Some(changes) = self.cascade_step(x, sliders, h, cascade::Start::Prepared { stiff: crawls }) {
+            return Ok(changes.and_then(|changes| self.shaped_end(sliders, changes)));
         }
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
-            return Ok(());
+            return Ok(None);
         }
         // The explicit substeps were given up: their lengths tell the next step nothing.
         self.high_order_found.set(NOT_CARRIED);
         self.stiff.set(true);
-        self.integrate_by_current_method(x, sliders, h)
+        self.integrate_by_current_method(x, sliders, h).map(|()| None)
+    }
+
+    /// [`SlidingStep::prepare`] and [`SlidingStep::integrate`]: where the cascade may
+    /// decide the modes at the start itself ([`SlidingStep::cascade_decides`]), it takes
+    /// the step from them, and preparing, which would find the same modes, is left to the
+    /// steps it does not take.
+    pub fn prepare_and_integrate(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        h: f64,
+    ) -> Result<Option<ShapedEnd>, NotConverged> {
+        if let Some(changes) = self.cascade_step(x, sliders, h, cascade::Start::Undecided) {
+            return Ok(changes.and_then(|changes| self.shaped_end(sliders, changes)));
+        }
+        self.prepare(x, sliders);
+        self.integrate(x, sliders, h)
     }
 
     /// [`SlidingStep::integrate`] by the method [`SlidingStep::stiff`] says.

@@ -5,7 +5,8 @@
 //! which Model Exchange exposes.
 
 use super::super::group::{
-    GroupInput, GroupLaw, MAX_MEMBERS, MAX_TOGETHER, Members, closest_points_together,
+    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, closest_points_together,
+    closest_points_where,
 };
 use super::super::{Direction, EVENT_TOLERANCE, MAX_BRANCHES, SliderState};
 use super::{Events, Modes, SlidingStep};
@@ -29,7 +30,48 @@ pub struct Preparation {
     sliding_rate: f64,
 }
 
+/// What the damped groups' limits take off their sticking forces, by direction: the
+/// closest point of the ellipse less the trial force, summed over the branches.
+pub type LimitChanges = [f64; Direction::COUNT];
+
+/// The outputs' shaping at a step's end where the step's last evaluation was there (the
+/// cascade's, with the step's inputs): what the limits take off the sticking forces, and
+/// what preparing a step from there would decide, as
+/// [`SlidingStep::prepare_with_damper_force_changes`] would give them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapedEnd {
+    pub changes: LimitChanges,
+    pub preparation: Preparation,
+}
+
 impl<'a> SlidingStep<'a> {
+    /// The [`ShapedEnd`] of a step that ended in `sliders`' modes with `changes` from its
+    /// last evaluation, where that is the outputs' whole shaping: every group damped
+    /// (nothing is put on its ellipse) and every limit above zero (no direction's
+    /// deflection is dropped). Every group keeps the mode it ended in, clear of its event:
+    /// deciding them there would find them again.
+    pub(super) fn shaped_end(&self, sliders: &SliderState, changes: LimitChanges) -> Option<ShapedEnd> {
+        if !self.friction.damped() || self.limits.0.iter().any(|&limit| limit <= 0.0) {
+            return None;
+        }
+        let mut fastest = 0.0_f64;
+        for slot in self.slots() {
+            if !slot.law.damped() {
+                return None;
+            }
+            if sliders.sliding[slot.group][slot.branch] {
+                fastest = fastest.max(GroupInput::at_rest(&slot.law).sliding_rate());
+            }
+        }
+        Some(ShapedEnd {
+            changes,
+            preparation: Preparation {
+                sliding: sliders.sliding,
+                sliding_rate: fastest,
+            },
+        })
+    }
+
     /// Brings the branches to the step's limits and inputs at its start: a spring force
     /// outside its limit is put on it (the load fell), and each group's mode is decided
     /// from its state. Returns true if every group sticks strictly inside its limit.
@@ -141,7 +183,7 @@ impl<'a> SlidingStep<'a> {
         if let (Some(change), Some(outside)) = (damper_changes, outside)
             && !moved
         {
-            outside.add_changes(change);
+            outside.add_changes(&outside.closest_points(), change);
         }
         if moved {
             *x = layout.unpack(&z, sliders);
@@ -152,7 +194,20 @@ impl<'a> SlidingStep<'a> {
     /// The change of the element forces (by direction) that the damped groups' limits
     /// make at these states and inputs: the sticking force where it is inside the limit,
     /// the closest point of the ellipse where it is not.
-    pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> [f64; Direction::COUNT] {
+    pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> LimitChanges {
+        self.shaped_evaluation(x, sliders, |_, changes| changes)
+    }
+
+    /// [`SlidingStep::damper_force_changes`], and each damped slot as those projections
+    /// find it ([`ShapedSlots`]), handed to `then` (where they are made, not moved): so a
+    /// step whose last evaluation is at its end gives its outputs the same bits as they
+    /// are made from its states on demand.
+    pub(super) fn shaped_evaluation<R>(
+        &self,
+        x: &StateVector,
+        sliders: &SliderState,
+        then: impl FnOnce(&ShapedSlots, LimitChanges) -> R,
+    ) -> R {
         let z = self.layout.pack(x, sliders);
         let states = self.layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
@@ -166,17 +221,40 @@ impl<'a> SlidingStep<'a> {
                 change[d] -= element.stiffness * states[k] + element.damping * rates[k];
             }
         }
-        let mut outside = DampedOutside::NONE;
-        for slot in self.slots() {
+        let mut shaped = ShapedSlots {
+            inputs: [GroupInput::at_rest(&GroupLaw::EMPTY); MAX_TOGETHER],
+            trials: [[0.0; MAX_MEMBERS]; MAX_TOGETHER],
+            utilisations: [0.0; MAX_TOGETHER],
+            outside: [false; MAX_TOGETHER],
+            points: [[0.0; MAX_MEMBERS]; MAX_TOGETHER],
+        };
+        let slots = &self.slots()[..self.slots().len().min(MAX_TOGETHER)];
+        for (j, slot) in slots.iter().enumerate() {
             let input = self.slot_input(slot, &states, &rates, &z);
-            if !input.damped() {
-                continue;
+            if input.damped() {
+                let trial = input.sticking_force();
+                let utilisation = input.utilisation(&trial);
+                (shaped.trials[j], shaped.utilisations[j]) = (trial, utilisation);
+                shaped.outside[j] = utilisation > 1.0;
             }
-            let trial = input.sticking_force();
-            outside.add(&input, trial, input.utilisation(&trial));
+            shaped.inputs[j] = input;
         }
-        outside.add_changes(&mut change);
-        change
+        shaped.points = closest_points_where(
+            &shaped.inputs[..slots.len()],
+            &shaped.trials,
+            &shaped.utilisations,
+            &shaped.outside,
+        );
+        // In the order of the slots, as [`DampedOutside::add_changes`] adds them.
+        for j in 0..slots.len() {
+            if shaped.outside[j] {
+                let input = &shaped.inputs[j];
+                for m in input.members() {
+                    change[input.direction[m]] += shaped.points[j][m] - shaped.trials[j][m];
+                }
+            }
+        }
+        then(&shaped, change)
     }
 
     /// The tire as a hybrid system in the modes of `sliders` (an importer's solver
@@ -235,6 +313,30 @@ impl<'a> SlidingStep<'a> {
     }
 }
 
+/// Each slot at one state as the outputs' shaping finds it ([`SlidingStep::shaped_evaluation`]):
+/// its input, and where it is damped, its trial force and that force's utilisation, and
+/// where that is outside the ellipse, the closest point there.
+pub(super) struct ShapedSlots<'s> {
+    inputs: [GroupInput<'s>; MAX_TOGETHER],
+    trials: [Members; MAX_TOGETHER],
+    utilisations: [f64; MAX_TOGETHER],
+    outside: [bool; MAX_TOGETHER],
+    points: [Members; MAX_TOGETHER],
+}
+
+impl ShapedSlots<'_> {
+    /// Slot `j`'s rates, forces and event value in mode `sliding`, as
+    /// [`GroupInput::evaluate`] gives them.
+    pub(super) fn output(&self, j: usize, sliding: bool) -> GroupOutput {
+        let input = &self.inputs[j];
+        if self.outside[j] {
+            input.damped_evaluated(sliding, self.trials[j], self.utilisations[j], &self.points[j])
+        } else {
+            input.evaluate(sliding)
+        }
+    }
+}
+
 /// The damped groups whose sticking force is outside the ellipse (`utilisation > 1`), as
 /// a pass over the slots finds them, so that their closest points are made side by side
 /// ([`closest_points_together`]): each a few Newton steps, which one after another would
@@ -255,19 +357,25 @@ impl<'s> DampedOutside<'s> {
     };
 
     /// A damped group with its sticking force `trial` and that force's utilisation; kept
-    /// if it is outside.
-    fn add(&mut self, input: &GroupInput<'s>, trial: Members, utilisation: f64) {
+    /// if it is outside, and then its place among them.
+    fn add(&mut self, input: &GroupInput<'s>, trial: Members, utilisation: f64) -> Option<usize> {
         if utilisation > 1.0 && self.count < MAX_TOGETHER {
             let k = self.count;
             (self.inputs[k], self.trials[k], self.utilisations[k]) = (*input, trial, utilisation);
             self.count += 1;
+            return Some(k);
         }
+        None
     }
 
-    /// Adds to `change` (by direction) what each group's limit does to its force: the
-    /// closest point of the ellipse less the trial, in the order the groups came.
-    fn add_changes(&self, change: &mut [f64; Direction::COUNT]) {
-        let points = closest_points_together(&self.inputs[..self.count], &self.trials, &self.utilisations);
+    /// Each group's closest point of its ellipse, in the order the groups came.
+    fn closest_points(&self) -> [Members; MAX_TOGETHER] {
+        closest_points_together(&self.inputs[..self.count], &self.trials, &self.utilisations)
+    }
+
+    /// Adds to `change` (by direction) what each group's limit does to its force: its
+    /// closest point `points` less the trial, in the order the groups came.
+    fn add_changes(&self, points: &[Members; MAX_TOGETHER], change: &mut [f64; Direction::COUNT]) {
         for (k, input) in self.inputs[..self.count].iter().enumerate() {
             for m in input.members() {
                 change[input.direction[m]] += points[k][m] - self.trials[k][m];
