@@ -42,6 +42,9 @@ pub struct GroupLaw {
     inverse_limit: [f64; MAX_MEMBERS],
     weight: [f64; MAX_MEMBERS],
     inverse_damping: [f64; MAX_MEMBERS],
+    /// The fastest of its damped members' `K_k / Dw_k` (1/s; zero for springs): how fast
+    /// a sliding spring-damper relaxes ([`GroupInput::sliding_rate`]).
+    relaxation_rate: f64,
 }
 
 /// A group's law at one state: its constants (by reference: an evaluation copies only
@@ -357,6 +360,7 @@ impl GroupLaw {
         inverse_limit: [0.0; MAX_MEMBERS],
         weight: [0.0; MAX_MEMBERS],
         inverse_damping: [0.0; MAX_MEMBERS],
+        relaxation_rate: 0.0,
     };
 
     /// Adds direction `direction` with its constants.
@@ -366,6 +370,9 @@ impl GroupLaw {
         self.stiffness[m] = stiffness;
         self.damping[m] = damping;
         self.inverse_damping[m] = if damping > 0.0 { damping.recip() } else { 0.0 };
+        if damping > 0.0 {
+            self.relaxation_rate = self.relaxation_rate.max(stiffness / damping);
+        }
         self.set_limit(m, limit);
         self.count += 1;
         self
@@ -499,17 +506,13 @@ impl<'a> GroupInput<'a> {
         self.utilisation(&self.sticking_force()) > 1.0
     }
 
-    /// The share of its sticking force's utilisation in its lesser direction where that
-    /// force is outside the ellipse (how far the slide is from one direction), else zero.
-    pub fn lesser_share(&self) -> f64 {
+    /// Whether its sticking force is inside its ellipse, or outside with at most `share` of
+    /// its utilisation in its lesser direction (a slide in about one direction).
+    pub fn within_share_of_one_direction(&self, share: f64) -> bool {
         let trial = self.sticking_force();
         let shares = [0, 1].map(|k| (trial[k] * self.inverse_limit[k]).powi(2));
         let utilisation = shares[0] + shares[1];
-        if utilisation > 1.0 {
-            shares[0].min(shares[1]) / utilisation
-        } else {
-            0.0
-        }
+        utilisation <= 1.0 || shares[0].min(shares[1]) <= share * utilisation
     }
 
     /// How fast the group moves its force while it slides, 1/s: springs turn it across
@@ -518,9 +521,7 @@ impl<'a> GroupInput<'a> {
     /// its time constants.)
     pub fn sliding_rate(&self) -> f64 {
         if self.damped() {
-            self.members()
-                .map(|k| self.stiffness[k] / self.damping[k])
-                .fold(0.0, f64::max)
+            self.relaxation_rate
         } else {
             self.members()
                 .map(|k| (self.stiffness[k] * self.sticking_rate[k] * self.inverse_limit[k]).abs())
@@ -760,19 +761,20 @@ impl<'a> GroupInput<'a> {
 
     /// The multiplier of [`GroupInput::closest_point`] where it has a closed form, else
     /// where its search starts.
+    #[inline]
     fn projection(&self, trial: &Members, utilisation: f64) -> Projection {
         let weight = self.weight;
-        let mut moving = self.members().filter(|&k| trial[k] != 0.0);
-        let first = moving.next();
-        match (first, moving.next()) {
+        // Which members move (a missing member's trial is zero).
+        let moving = [trial[0] != 0.0, trial[1] != 0.0];
+        let radial = |k: usize| Projection::Settled((utilisation.sqrt() - 1.0) / weight[k]);
+        match moving {
             // One direction (or equal weights): the ellipse scales T radially.
-            (Some(k), None) => Projection::Settled((utilisation.sqrt() - 1.0) / weight[k]),
-            (Some(k), Some(j)) if weight[k] == weight[j] => {
-                Projection::Settled((utilisation.sqrt() - 1.0) / weight[k])
-            }
-            (None, _) => Projection::Settled(0.0),
-            _ => {
-                let largest = self.members().map(|k| weight[k]).fold(0.0, f64::max);
+            [true, false] => radial(0),
+            [false, true] => radial(1),
+            [false, false] => Projection::Settled(0.0),
+            [true, true] if weight[0] == weight[1] => radial(0),
+            [true, true] => {
+                let largest = weight[0].max(weight[1]).max(0.0);
                 let ratio_squared = [0, 1].map(|k| (trial[k] * self.inverse_limit[k]).powi(2));
                 Projection::Search(Search {
                     start: (utilisation.sqrt() - 1.0) / largest,

@@ -110,7 +110,7 @@ const ONE_DIRECTION_SHARE: f64 = 1e-3;
 fn in_one_direction(inputs: &[GroupInput]) -> bool {
     inputs
         .iter()
-        .all(|input| input.lesser_share() <= ONE_DIRECTION_SHARE)
+        .all(|input| input.within_share_of_one_direction(ONE_DIRECTION_SHARE))
 }
 
 /// How a cascade step starts.
