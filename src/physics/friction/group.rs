@@ -380,9 +380,16 @@ impl GroupLaw {
 
     /// Member `m`'s limit, and the constants made from it.
     pub fn set_limit(&mut self, m: usize, limit: f64) {
+        self.set_limit_and_inverse(m, limit, limit.recip());
+    }
+
+    /// Member `m`'s limit with its reciprocal made by the caller (from a fraction's and a
+    /// direction's, so that the branches of a step share their divisions), and the
+    /// constants made from them.
+    pub fn set_limit_and_inverse(&mut self, m: usize, limit: f64, inverse_limit: f64) {
         self.limit[m] = limit;
-        self.inverse_limit[m] = limit.recip();
-        self.weight[m] = self.damping[m] / (limit * limit);
+        self.inverse_limit[m] = inverse_limit;
+        self.weight[m] = self.damping[m] * (inverse_limit * inverse_limit);
     }
 
     /// The indices of its members. (The law's own sums take every slot: a missing

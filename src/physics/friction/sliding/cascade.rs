@@ -33,7 +33,7 @@
 //! from its start ([`super::SlidingStep::integrate`]).
 
 use super::events::{InteriorSearch, NEAR_EVENT};
-use super::exponential::{Exprb43, LinearPart, exponential_euler, exprb43, negligible_term, resize};
+use super::exponential::{EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize};
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
 use super::modes::{LimitChanges, ShapedSlots};
@@ -97,6 +97,33 @@ impl DriverSum {
 /// system's exponential substep must be, [`NEAR_EVENT`]); not a NaN.
 fn clear(event: f64) -> bool {
     event <= -NEAR_EVENT
+}
+
+/// Whether the parabola through each group's event values at a substep's start, its
+/// stage (three quarters on) and its end keeps as clear of the event within the substep
+/// as the samples must be ([`clear`]): a limit touched and left again between them shows.
+fn peaks_clear(first: &Events, stage: &Events, last: &Events) -> bool {
+    const C: f64 = 0.75;
+    for ((&e0, &e1), &e2) in first
+        .as_flattened()
+        .iter()
+        .zip(stage.as_flattened())
+        .zip(last.as_flattened())
+    {
+        if e0 == NO_EVENT {
+            continue;
+        }
+        // `e(s) = e0 + slope s + curvature s^2` through the three samples.
+        let curvature = ((e1 - e0) - C * (e2 - e0)) / (C * C - C);
+        let slope = (e2 - e0) - curvature;
+        if curvature < 0.0 {
+            let s = -slope / (2.0 * curvature);
+            if (0.0..=1.0).contains(&s) && e0 - slope * slope / (4.0 * curvature) > -NEAR_EVENT {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Below this share of its utilisation in its lesser direction, a damped group slides
@@ -385,96 +412,106 @@ impl SlidingStep<'_> {
                 return None;
             }
             let slopes = groups.slopes(&inputs, &rates);
-            let (end, factor) = if stiff {
-                match self.driven_implicit_substep(groups, (t, &w), (&rates, &events), &slopes, length) {
-                    Implicit::Taken(end, growth) => (Some(end), growth),
-                    Implicit::Shorter => (None, 0.25),
-                    Implicit::NearEvent => return None,
+            if stiff {
+                let (end, factor) =
+                    match self.driven_implicit_substep(groups, (t, &w), (&rates, &events), &slopes, length) {
+                        Implicit::Taken(end, growth) => (Some(end), growth),
+                        Implicit::Shorter => (None, 0.25),
+                        Implicit::NearEvent => return None,
+                    };
+                if let Some(end) = end {
+                    (w, t, taken) = (end, t + length, taken + 1);
                 }
-            } else {
-                let linear = groups.linear_part(&slopes, length, negligible_term(self.scale, largest));
-                let error_of = |best: &Driven, previous: &Driven| {
-                    self.error_ratio_of(
-                        (&w[..deflections], &best[..deflections], &previous[..deflections]),
-                        largest,
-                    )
+                length *= factor;
+                continue;
+            }
+            let linear = groups.linear_part(&slopes, length, negligible_term(self.scale, largest));
+            let error_of = |best: &Driven, previous: &Driven| {
+                self.error_ratio_of(
+                    (&w[..deflections], &best[..deflections], &previous[..deflections]),
+                    largest,
+                )
+            };
+            // The rates and event values at the substep's end: at the step's end from its
+            // states and branches, as the outputs are made, so that they come from this
+            // evaluation.
+            let last = t + length >= h;
+            let mut shaped = None;
+            let mut end_evaluation = |u: &Driven| {
+                if !last {
+                    return groups.evaluate(u);
+                }
+                let (end_x, end_sliders) = self.whole_end(cascade, (z, modes, sliders), u);
+                self.shaped_evaluation(&end_x, &end_sliders, |slots, changes| {
+                    shaped = Some(ShapedAt {
+                        x: end_x,
+                        sliders: end_sliders,
+                        changes,
+                    });
+                    groups.laid_out(cascade, slots, u)
+                })
+            };
+            if in_one_direction(&inputs[..groups.count()]) {
+                let mut search = InteriorSearch::new(&events);
+                let mut at_end = None;
+                let middle = |u: &Driven| {
+                    search.sample(1, 0.5 * length, &groups.events(u));
+                    (search.found() == (None, None)).then_some(())
                 };
-                if in_one_direction(&inputs[..groups.count()]) {
-                    let last = t + length >= h;
-                    let mut search = InteriorSearch::new(&events);
-                    let mut at_end = None;
-                    let mut shaped = None;
-                    let middle = |u: &Driven| {
-                        search.sample(1, 0.5 * length, &groups.events(u));
-                        (search.found() == (None, None)).then_some(())
-                    };
-                    let end_rates = |u: &Driven| {
-                        // The step's end: evaluated from its states and branches, as the
-                        // outputs are made, so that they come from this evaluation.
-                        let evaluation = if last {
-                            let (end_x, end_sliders) = self.whole_end(cascade, (z, modes, sliders), u);
-                            self.shaped_evaluation(&end_x, &end_sliders, |slots, changes| {
-                                shaped = Some(ShapedAt {
-                                    x: end_x,
-                                    sliders: end_sliders,
-                                    changes,
-                                });
-                                groups.laid_out(cascade, slots, u)
-                            })
-                        } else {
-                            groups.evaluate(u)
-                        };
-                        let rates = evaluation.0;
-                        at_end = Some(evaluation);
-                        Some(rates)
-                    };
-                    let euler = exponential_euler(&linear, &w, &rates, middle, end_rates, &error_of);
-                    if let (Some((end, error)), Some(evaluation)) = (euler, at_end) {
-                        search.sample(2, 0.5 * length, &evaluation.1);
-                        if search.found() != (None, None) {
-                            return None;
-                        }
-                        if error <= 1.0 {
-                            (w, t, taken) = (end, t + length, taken + 1);
-                            (evaluated, end_shaped) = (Some(evaluation), shaped);
-                            length *= resize(error).1;
-                            continue;
-                        }
-                    } else if search.found() != (None, None) {
+                let end_rates = |u: &Driven| {
+                    let evaluation = end_evaluation(u);
+                    let rates = evaluation.0;
+                    at_end = Some(evaluation);
+                    Some(rates)
+                };
+                let euler = exponential_euler(&linear, &w, &rates, middle, end_rates, &error_of);
+                if let (Some((end, error)), Some(evaluation)) = (euler, at_end) {
+                    search.sample(2, 0.5 * length, &evaluation.1);
+                    if search.found() != (None, None) {
                         return None;
                     }
+                    // The estimate is of the end taken.
+                    let (accepted, factor) = resize(error, 1.0);
+                    if accepted {
+                        (w, t, taken) = (end, t + length, taken + 1);
+                        (evaluated, end_shaped) = (Some(evaluation), shaped.take());
+                        length *= factor;
+                        continue;
+                    }
+                } else if search.found() != (None, None) {
+                    return None;
                 }
-                let mut search = InteriorSearch::new(&events);
-                let stage_rates = |stage: usize, u: &Driven| {
-                    let (rates, events) = groups.evaluate(u);
-                    search.sample(stage, 0.5 * length, &events);
-                    (stage == 1 || search.found() == (None, None)).then_some(rates)
+            }
+            // Each stage clear of its event, and the parabola through the event values at
+            // the start, the stage and the end too.
+            let mut stage_events = events;
+            let mut at_end = None;
+            let stage_rates = |stage: usize, u: &Driven| {
+                let evaluation = if stage == 1 {
+                    groups.evaluate(u)
+                } else {
+                    end_evaluation(u)
                 };
-                match exprb43(&linear, &w, &rates, stage_rates, Some(&error_of))? {
-                    Exprb43::Full { fourth, third } => {
-                        let (taken, factor) = resize(error_of(&fourth, &third));
-                        (taken.then_some(fourth), factor)
-                    }
-                    // `U3` was not evaluated: the end's event values are sampled in its
-                    // place, as the third sample of the substep.
-                    Exprb43::Early { third, error } => {
-                        search.sample(2, 0.5 * length, &groups.events(&third));
-                        if search.found() != (None, None) {
-                            return None;
-                        }
-                        (Some(third), resize(error).1)
-                    }
+                if !all_clear(&evaluation.1) {
+                    return None;
                 }
+                let rates = evaluation.0;
+                if stage == 1 {
+                    stage_events = evaluation.1;
+                } else {
+                    at_end = Some(evaluation);
+                }
+                Some(rates)
             };
-            if let Some(end) = end {
+            let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
+            let evaluation = at_end?;
+            if !peaks_clear(&events, &stage_events, &evaluation.1) {
+                return None;
+            }
+            let (accepted, factor) = resize(error_of(&end, &third), EXPRB42_MARGIN);
+            if accepted {
                 (w, t, taken) = (end, t + length, taken + 1);
-                // An exponential substep has sampled its end (`U3`, to within its remainder
-                // terms, or the end itself where it took no `U3`), every group clear of its
-                // event there: at the step's end that is the check, with no evaluation
-                // more. (The implicit rows sample inside.)
-                if !stiff && t >= h {
-                    return Some((w, None));
-                }
+                (evaluated, end_shaped) = (Some(evaluation), shaped);
             }
             length *= factor;
         }
@@ -776,6 +813,7 @@ impl LinearPart<DRIVEN> for DrivenLinearPart {
     /// Pair by pair (a group's members, the two `q`s), each read and written whole: the
     /// series feeds each product back in at once, and a pair read across two separate
     /// stores would stall it.
+    #[inline(always)]
     fn times(&self, v: &Driven) -> Driven {
         let mut product = [0.0; DRIVEN];
         let q = [v[Q[0]], v[Q[1]]];

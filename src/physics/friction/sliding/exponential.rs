@@ -19,12 +19,26 @@
 //! error does. A linear piece (every group sticking) has no remainder: the substep is the
 //! exact solution.
 //!
-//! Two evaluations can already give third order: `z + H phi1(X) f(z) + 8 H phi3(X) D2`
-//! (exprb32's condition with its stage at the middle). Where a caller allows it, a
-//! substep whose exponential Euler end `z + H phi1(X) f(z)` is within the tolerance of
-//! that ends there, without `U3` ([`Exprb43::Early`]): in a slide in one direction the
-//! remainder is that small (DDT's cascade, `cargo bench --bench exponential_probe`:
-//! exponential Euler within 6e-12 of the state, exprb32 within 5e-14).
+//! DDT's cascade ([`super::cascade`]) wants the rates at each substep's end anyway (the
+//! next substep's start, and at a step's end the outputs), so it steps by methods whose
+//! last evaluation is at their end:
+//! - **exprb42** (Luan and Ostermann): fourth order from two evaluations, its stage at
+//!   three quarters:
+//!
+//!   ```text
+//!   U2 = z + 3H/4 phi1(3X/4) f(z)
+//!   z' = z + H phi1(X) f(z) + 32/9 H phi3(X) D2
+//!   ```
+//!
+//!   (`32/9 phi3` meets the third-order condition `b2 c2^2 = 2 phi3`, and the
+//!   fourth-order one `b2 c2^3 = 6 phi4` where `X` is small, as over a non-stiff
+//!   substep.) Its error is estimated from the rates at its end, `D3`, by the third-order
+//!   `z + H phi1(X) f(z) + 2 H phi3(X) D3` (exprb32 with its stage at the end). Over DDT's
+//!   slides (`cargo bench --bench exponential_probe`, column "42/est.") the fourth-order
+//!   end's error was at most 0.17 of that estimate ([`EXPRB42_MARGIN`]).
+//! - **Exponential Euler** `z + H phi1(X) f(z)` where a slide in one direction turns its
+//!   force so little that it is within the tolerance: one evaluation, at its end, whose
+//!   rates estimate its error the same way ([`exponential_euler`]).
 //!
 //! The products `phi_k(X) v` are Taylor series of matrix-vector products, summed to
 //! below the tolerance; one series of powers `X^j v` serves every phi-function of the
@@ -57,6 +71,16 @@ const HALF_POWERS: [f64; MAX_TERMS] = {
     }
     table
 };
+/// `(3/4)^j`, for `phi1(3X / 4)` from the powers of `X`.
+const THREE_QUARTER_POWERS: [f64; MAX_TERMS] = {
+    let mut table = [1.0; MAX_TERMS];
+    let mut j = 1;
+    while j < MAX_TERMS {
+        table[j] = 0.75 * table[j - 1];
+        j += 1;
+    }
+    table
+};
 /// A series ends where a term moves every entry by less than this fraction of the
 /// substep's tolerance.
 const NEGLIGIBLE: f64 = 1e-3;
@@ -64,7 +88,12 @@ const NEGLIGIBLE: f64 = 1e-3;
 /// How many times the tolerance the embedded estimate may be. It is the third-order
 /// solution's error; the fourth-order one taken is far closer: over the slide
 /// yardstick's steps, 20 to 700 times (`cargo bench --bench exponential_probe`).
-const ESTIMATE_MARGIN: f64 = 20.0;
+pub(super) const ESTIMATE_MARGIN: f64 = 20.0;
+
+/// How many times the tolerance exprb42's estimate may be: its fourth-order end's error
+/// was at most 0.17 of the estimate over DDT's slides in one direction and in two (`cargo
+/// bench --bench exponential_probe`), so its end stays within the tolerance.
+pub(super) const EXPRB42_MARGIN: f64 = 5.0;
 
 /// The band of turns in which an exponential substep is not tried: a sliding spring
 /// group's least-moved member returned to the ellipse by between a thousandth of its
@@ -269,12 +298,11 @@ impl SlidingStep<'_> {
             let near = stage == 2 && look_inside && search.found() != (None, None);
             (!near).then(|| shortened::<E>(rates))
         };
-        let Some(Exprb43::Full { fourth, third }) = exprb43(
+        let Some((fourth, third)) = exprb43(
             &linear,
             &shortened::<E>(z),
             &shortened::<E>(start_rates),
             stage_rates,
-            None,
         ) else {
             return Exponential::NotSuited;
         };
@@ -283,7 +311,7 @@ impl SlidingStep<'_> {
             (&z[..size], &fourth[..size], &third[..size]),
             largest_of(&z[..size]),
         );
-        match resize(error) {
+        match resize(error, ESTIMATE_MARGIN) {
             (true, growth) => {
                 let mut end = *z;
                 end[..E].copy_from_slice(&fourth);
@@ -296,12 +324,13 @@ impl SlidingStep<'_> {
     }
 }
 
-/// Whether a substep whose embedded estimate is `error_ratio` times the tolerance is
-/// taken, and the factor by which the next (or the one tried again) is to be longer. The
-/// estimate is the third-order solution's error (~ length^4); it aims at a third of the
-/// tolerance.
-pub(super) fn resize(error_ratio: f64) -> (bool, f64) {
-    let error = error_ratio / ESTIMATE_MARGIN;
+/// Whether a substep whose estimate is `error_ratio` times the tolerance is taken (at
+/// most `margin` times: [`ESTIMATE_MARGIN`], [`EXPRB42_MARGIN`], or 1 where the estimate
+/// is the taken end's own error), and the factor by which the next (or the one tried
+/// again) is to be longer. The estimate is a third-order solution's error (~ length^4);
+/// it aims at a third of the allowed.
+pub(super) fn resize(error_ratio: f64, margin: f64) -> (bool, f64) {
+    let error = error_ratio / margin;
     let factor = 0.9 / (3.0 * error).max(1e-10).sqrt().sqrt();
     if error <= 1.0 {
         (true, factor.clamp(0.2, 4.0))
@@ -310,20 +339,9 @@ pub(super) fn resize(error_ratio: f64) -> (bool, f64) {
     }
 }
 
-/// What an exprb43 substep gives: both solutions of the pair, or the third-order one
-/// of its first two evaluations where the substep took no more.
-pub(super) enum Exprb43<const E: usize> {
-    /// The fourth-order solution and the embedded third-order one.
-    Full { fourth: [f64; E], third: [f64; E] },
-    /// `z + H phi1(X) f(z) + 8 H phi3(X) D2` (third order from `U2` alone, as exprb32 is
-    /// from a stage at the end), and its difference from exponential Euler's
-    /// `z + H phi1(X) f(z)` (Euler's error) relative to the tolerance, at most 1.
-    Early { third: [f64; E], error: f64 },
-}
-
-/// The difference of two ends relative to the tolerance (the caller's error ratio), for
-/// the early end of [`exprb43`]: the third-order solution and exponential Euler's.
-pub(super) type EarlyError<'a, const E: usize> = dyn Fn(&[f64; E], &[f64; E]) -> f64 + 'a;
+/// The difference of two ends relative to the tolerance (the caller's error ratio):
+/// exponential Euler's estimate of its own error ([`exponential_euler`]).
+pub(super) type ErrorOf<'a, const E: usize> = dyn Fn(&[f64; E], &[f64; E]) -> f64 + 'a;
 
 /// `1/(j + k)!`, the weight of `X^j` in `phi_k(X)`.
 fn phi(k: usize, j: usize) -> f64 {
@@ -353,8 +371,7 @@ fn remainder<const E: usize>(
 /// One exponential Euler substep of `X = H J` from `z` with its rates `f0`,
 /// `z' = z + H phi1(X) f(z)`, with its error estimated from the rates at its own end:
 /// exprb32's third-order solution `z' + 2 H phi3(X) D3`, `D3 = N(z') - N(z)`, differs
-/// from it by about Euler's error (as [`Exprb43::Early`]'s does, from a stage at the
-/// middle). Where a slide turns its force so little that Euler is within the
+/// from it by about Euler's error. Where a slide turns its force so little that Euler is within the
 /// tolerance, its end is taken, and the evaluation there (which a caller may make as the
 /// outputs are made) serves the next substep's start: one evaluation a substep.
 ///
@@ -368,7 +385,7 @@ pub(super) fn exponential_euler<const E: usize>(
     f0: &[f64; E],
     mut middle: impl FnMut(&[f64; E]) -> Option<()>,
     mut end_rates: impl FnMut(&[f64; E]) -> Option<[f64; E]>,
-    error: &EarlyError<'_, E>,
+    error: &ErrorOf<'_, E>,
 ) -> Option<([f64; E], f64)> {
     let length = linear.length();
     let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
@@ -387,52 +404,30 @@ pub(super) fn exponential_euler<const E: usize>(
     (end.iter().chain(&third).all(|v| v.is_finite())).then(|| (end, error(&third, &end)))
 }
 
-/// One exprb43 substep of `X = H J` ([`Linearisation`]) from `z` with its rates `f0`
-/// (see the module's doc), or `None` where a series would be long, a value is not
-/// finite, or `stage_rates` gives up. `stage_rates(k, u)` gives the rates at `U2`
-/// (`k = 1`, half the substep on) and at `U3` (`k = 2`, its end).
-///
-/// With `early`, the substep may end after `U2`: the weight `8 phi3(X)` on `D2` alone
-/// meets the third-order condition `sum b_i c_i^2 = 2 phi3` at `c2 = 1/2`, and its
-/// difference from exponential Euler (second order) estimates Euler's error.
-/// `early(third, euler)` gives it relative to the tolerance; where it is at most 1, the
-/// third-order solution, whose own error is a smaller power of the substep, is taken
-/// ([`Exprb43::Early`]) and `U3` is not evaluated. In a slide in one direction the
-/// remainder is so small that this is the usual outcome.
+/// One exprb43 substep of `X = H J` from `z` with its rates `f0` (see the module's doc):
+/// its fourth-order solution and the embedded third-order one, or `None` where a series
+/// would be long, a value is not finite, or `stage_rates` gives up. `stage_rates(k, u)`
+/// gives the rates at `U2` (`k = 1`, half the substep on) and at `U3` (`k = 2`, its end).
 pub(super) fn exprb43<const E: usize>(
     linear: &impl LinearPart<E>,
     z: &[f64; E],
     f0: &[f64; E],
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
-    early: Option<&EarlyError<'_, E>>,
-) -> Option<Exprb43<E>> {
+) -> Option<([f64; E], [f64; E])> {
     let length = linear.length();
     // phi1(X) f and phi1(X/2) f from one series.
     let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
-    let remainder = |u: &[f64; E], rates: &[f64; E]| remainder(linear, (z, f0), u, rates);
     let mut middle = *z;
     for c in 0..E {
         middle[c] += 0.5 * length * half[c];
     }
-    let d2 = remainder(&middle, &stage_rates(1, &middle)?);
+    let d2 = remainder(linear, (z, f0), &middle, &stage_rates(1, &middle)?);
     let [d2_phi1, d2_phi3, d2_phi4] = linear.series(&d2, |j| [phi(1, j), phi(3, j), phi(4, j)])?;
-    if let Some(early) = early {
-        let mut euler = *z;
-        let mut third = *z;
-        for c in 0..E {
-            euler[c] += length * whole[c];
-            third[c] = euler[c] + 8.0 * length * d2_phi3[c];
-        }
-        let error = early(&third, &euler);
-        if third.iter().all(|v| v.is_finite()) && error <= 1.0 {
-            return Some(Exprb43::Early { third, error });
-        }
-    }
     let mut end = *z;
     for c in 0..E {
         end[c] += length * (whole[c] + d2_phi1[c]);
     }
-    let d3 = remainder(&end, &stage_rates(2, &end)?);
+    let d3 = remainder(linear, (z, f0), &end, &stage_rates(2, &end)?);
     let [d3_phi3, d3_phi4] = linear.series(&d3, |j| [phi(3, j), phi(4, j)])?;
     let mut fourth = *z;
     let mut third = *z;
@@ -440,10 +435,45 @@ pub(super) fn exprb43<const E: usize>(
         third[c] += length * (whole[c] + 16.0 * d2_phi3[c] - 2.0 * d3_phi3[c]);
         fourth[c] = third[c] + length * (12.0 * d3_phi4[c] - 48.0 * d2_phi4[c]);
     }
-    fourth
-        .iter()
-        .all(|v| v.is_finite())
-        .then_some(Exprb43::Full { fourth, third })
+    fourth.iter().all(|v| v.is_finite()).then_some((fourth, third))
+}
+
+/// One exprb42 substep of `X = H J` from `z` with its rates `f0` (see the module's doc):
+/// its fourth-order end and the third-order solution from the rates there, or `None`
+/// where a series would be long, a value is not finite, or `stage_rates` gives up.
+/// `stage_rates(k, u)` gives the rates at `U2` (`k = 1`, three quarters of the substep
+/// on) and at the end (`k = 2`), which the caller keeps as the next substep's start.
+pub(super) fn exprb42<const E: usize>(
+    linear: &impl LinearPart<E>,
+    z: &[f64; E],
+    f0: &[f64; E],
+    mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
+) -> Option<([f64; E], [f64; E])> {
+    let length = linear.length();
+    // phi1(X) f and phi1(3X/4) f from one series.
+    let [whole, part] = linear.series(f0, |j| [phi(1, j), phi(1, j) * THREE_QUARTER_POWERS[j]])?;
+    let mut stage = *z;
+    for c in 0..E {
+        stage[c] += 0.75 * length * part[c];
+    }
+    let d2 = remainder(linear, (z, f0), &stage, &stage_rates(1, &stage)?);
+    let [d2_phi3] = linear.series(&d2, |j| [phi(3, j)])?;
+    let mut euler = *z;
+    let mut end = *z;
+    for c in 0..E {
+        euler[c] += length * whole[c];
+        end[c] = euler[c] + (32.0 / 9.0) * length * d2_phi3[c];
+    }
+    if !end.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let d3 = remainder(linear, (z, f0), &end, &stage_rates(2, &end)?);
+    let [d3_phi3] = linear.series(&d3, |j| [phi(3, j)])?;
+    let mut third = euler;
+    for c in 0..E {
+        third[c] += 2.0 * length * d3_phi3[c];
+    }
+    Some((end, third))
 }
 
 #[cfg(test)]

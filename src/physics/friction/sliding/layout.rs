@@ -7,6 +7,7 @@
 use super::super::group::{GroupInput, GroupLaw, MAX_MEMBERS, Members};
 use super::super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use super::{Modes, SIZE, Vector};
+use crate::physics::brush::Branch;
 use crate::physics::state_space::{MAX_STATES, StateSpace, StateVector, by_state_count};
 
 /// Where each quantity of a step sits in the coupled vector: first the model's states
@@ -249,6 +250,34 @@ pub struct SlidingSlots {
     pub(super) count: usize,
 }
 
+/// The reciprocals of a step's branch limits `phi_i Fmax`, made as `(1 / phi_i) (1 / Fmax)`:
+/// seven divisions for DDT's sixteen members, every step the load moves the limits.
+struct BranchLimits {
+    inverse_fraction: [f64; MAX_BRANCHES],
+    inverse_limit: [f64; Direction::COUNT],
+}
+
+impl BranchLimits {
+    fn new(branches: &[Branch], limits: &Limits) -> Self {
+        let mut inverse_fraction = [0.0; MAX_BRANCHES];
+        for (inverse, branch) in inverse_fraction.iter_mut().zip(branches) {
+            *inverse = branch.limit_fraction.recip();
+        }
+        BranchLimits {
+            inverse_fraction,
+            inverse_limit: limits.0.map(f64::recip),
+        }
+    }
+
+    /// Branch `i`'s limit in direction `d`, and its reciprocal.
+    fn of(&self, branches: &[Branch], i: usize, d: usize, limits: &Limits) -> (f64, f64) {
+        (
+            branches[i].limit_fraction * limits.0[d],
+            self.inverse_fraction[i] * self.inverse_limit[d],
+        )
+    }
+}
+
 /// Whether `a` and `b` hold the same bits: one pass without a branch (an array
 /// comparison is a call to `memcmp`, which stalls on the stores just made).
 fn same_bits(a: &[u64], b: &[u64]) -> bool {
@@ -288,20 +317,22 @@ impl Friction {
     /// The slots' limits and relaxation rates at `limits` and `system`, their members
     /// kept (as [`Friction::fill_sliding_slots`] makes them).
     pub(super) fn refresh_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
+        let inverse = BranchLimits::new(self.branches, limits);
         let laid_out = &mut self.sliding_slots;
         for slot in &mut laid_out.slots[..laid_out.count] {
-            let limit_fraction = self.branches[slot.branch].limit_fraction;
             for m in slot.law.members() {
                 let state = slot.states[m];
                 slot.relaxation[m] = system.a[(state, state)];
-                slot.law
-                    .set_limit(m, limit_fraction * limits.0[slot.law.direction[m]]);
+                let (limit, inverse_limit) =
+                    inverse.of(self.branches, slot.branch, slot.law.direction[m], limits);
+                slot.law.set_limit_and_inverse(m, limit, inverse_limit);
             }
         }
     }
 
     /// The slots of [`Friction::lay_out_sliding`], written where they are kept.
     pub(super) fn fill_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
+        let inverse = BranchLimits::new(self.branches, limits);
         let groups = Self::groups_of(&self.group_members);
         let laid_out = &mut self.sliding_slots;
         laid_out.count = 0;
@@ -322,12 +353,14 @@ impl Friction {
                     slot.entries[m] = laid_out.layout.branch_entry(d, i).expect("a present element");
                     slot.states[m] = element.state;
                     slot.relaxation[m] = system.a[(element.state, element.state)];
+                    let (limit, inverse_limit) = inverse.of(self.branches, i, d, limits);
                     slot.law = slot.law.with_member(
                         direction,
                         branch.stiffness_fraction * element.stiffness,
                         branch.stiffness_fraction * element.damping,
-                        branch.limit_fraction * limits.0[d],
+                        limit,
                     );
+                    slot.law.set_limit_and_inverse(m, limit, inverse_limit);
                 }
                 if slot.law.count > 0 {
                     laid_out.count += 1;
