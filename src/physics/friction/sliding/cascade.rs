@@ -151,14 +151,6 @@ pub(super) enum Start {
     Undecided,
 }
 
-/// The step's end where its last evaluation was made as the outputs are: the states
-/// and branches there, and what the damped groups' limits take off their sticking forces.
-struct ShapedAt {
-    x: StateVector,
-    sliders: SliderState,
-    changes: LimitChanges,
-}
-
 /// `t phi1(mu t) = (exp(mu t) - 1) / mu`, and `t` where `mu = 0`.
 fn q_at(mu: f64, t: f64) -> f64 {
     let x = mu * t;
@@ -237,7 +229,10 @@ impl SlidingStep<'_> {
         }
         // A mode no driver is in has `mu = 0`: `q(h) = h`.
         sum.end = q_end.map(|q| q.unwrap_or(h));
-        let (driven, shaped) = match DrivenGroups::new(self, &cascade, modes, &sum) {
+        // Where the last substep's end was evaluated as the outputs are made: the states
+        // and branches there (written by that evaluation, not moved out of it).
+        let mut end_at = (*x, *sliders);
+        let (driven, changes) = match DrivenGroups::new(self, &cascade, modes, &sum) {
             Some(mut groups) => {
                 let w = groups.start(&end);
                 if deciding {
@@ -248,25 +243,16 @@ impl SlidingStep<'_> {
                     Start::Prepared { stiff } => stiff,
                     Start::Undecided => h * self.fastest_sliding_rate(&modes) > STIFF_STEP,
                 };
-                self.driven_step(&cascade, &groups, w, (&end, sliders), (h, largest, stiff))?
+                self.driven_step(&cascade, &groups, w, (&end, &mut end_at), (h, largest, stiff))?
             }
             // No planar group has a member (no limit in either direction): nothing to step.
             None => ([0.0; DRIVEN], None),
         };
-        Some(match shaped {
-            Some(ShapedAt {
-                x: end_x,
-                sliders: end_sliders,
-                changes,
-            }) => {
-                (*x, *sliders) = (end_x, end_sliders);
-                Some(changes)
-            }
-            None => {
-                (*x, *sliders) = self.whole_end(&cascade, (&end, &modes, sliders), &driven);
-                None
-            }
-        })
+        (*x, *sliders) = match changes {
+            Some(_) => end_at,
+            None => self.whole_end(&cascade, (&end, &modes, sliders), &driven),
+        };
+        Some(changes)
     }
 
     /// The states and branches at the end `driven` of the driven groups, with the
@@ -355,21 +341,23 @@ impl SlidingStep<'_> {
 
     /// The driven groups over the step, side by side, in substeps of one length: by
     /// exponential Euler where the slide is in one direction and that is within the
-    /// tolerance, else by exprb43 ([`DrivenLinearPart`]), or for a stiff slide by
+    /// tolerance, else by exprb42 ([`DrivenLinearPart`]), or for a stiff slide by
     /// linearly implicit Euler extrapolation, whose solves take each group's own two by
     /// two. The driven vector at the end, or `None` if a group nears its event or they
     /// need more than [`MAX_SUBSTEPS`]. With the end, what the limits take off the
     /// groups' sticking forces there where the last substep's end was evaluated as the
-    /// outputs are made (an exponential Euler substep's, [`SlidingStep::shaped_evaluation`]).
+    /// outputs are made (an explicit substep's, [`SlidingStep::shaped_evaluation`]), its
+    /// states and branches then written to `end_at`.
     fn driven_step(
         &self,
         cascade: &Cascade,
         groups: &DrivenGroups,
         mut w: Driven,
-        (z, sliders): (&Vector, &SliderState),
+        (z, end_at): (&Vector, &mut (StateVector, SliderState)),
         (h, largest, stiff): (f64, f64, bool),
-    ) -> Option<(Driven, Option<ShapedAt>)> {
+    ) -> Option<(Driven, Option<LimitChanges>)> {
         let modes = &groups.modes;
+        let sliders = end_at.1;
         // The explicit substeps stay as short as the whole system's exponential ones, so
         // that their samples of the event values are as close; the implicit ones try the
         // whole step first, as there.
@@ -383,25 +371,33 @@ impl SlidingStep<'_> {
         };
         // Over the groups' deflections: the `q`s are exact.
         let deflections = entry(groups.count(), 0);
-        // The evaluation where the last substep ended, where an exponential Euler substep
-        // made it (its end's), and what the limits take off the forces there where that
-        // was the step's end.
-        let mut evaluated = None;
-        let mut end_shaped = None;
+        // The rates and event values where each substep starts: made there, or kept from
+        // the last substep's end where an explicit one evaluated it (in place, as the
+        // pieces of an evaluation are not moved); and what the limits take off the forces
+        // where that end was the step's.
+        let (mut rates, mut events) = groups.evaluate(&w);
+        let mut end_rates = rates;
+        let mut end_events = events;
+        let mut kept = false;
+        let mut changes = None;
         // Each pass evaluates where the last substep ended (the last pass only the event
         // values there), so the loop has a pass more than the substeps.
         for _ in 0..=MAX_SUBSTEPS {
             if t >= h {
-                // An Euler substep's end was evaluated, its events clear there.
-                if evaluated.is_some() {
-                    return Some((w, end_shaped));
+                // An explicit substep's end was evaluated, its events clear there.
+                if kept {
+                    return Some((w, changes));
                 }
                 return all_clear(&groups.events(&w)).then_some((w, None));
             }
-            let (rates, events) = evaluated.take().unwrap_or_else(|| groups.evaluate(&w));
+            if kept {
+                (rates, events) = (end_rates, end_events);
+            } else if taken > 0 {
+                (rates, events) = groups.evaluate(&w);
+            }
+            (kept, changes) = (false, None);
             // Made again where they are used, not carried with the rates.
             let (inputs, _) = groups.inputs(&w);
-            end_shaped = None;
             if !all_clear(&events) {
                 return None;
             }
@@ -432,41 +428,38 @@ impl SlidingStep<'_> {
                     largest,
                 )
             };
-            // The rates and event values at the substep's end: at the step's end from its
-            // states and branches, as the outputs are made, so that they come from this
-            // evaluation.
+            // The rates and event values at the substep's end, into `end_rates` and
+            // `end_events`: at the step's end from its states and branches, as the outputs
+            // are made, so that they come from this evaluation.
             let last = t + length >= h;
-            let mut shaped = None;
-            let mut end_evaluation = |u: &Driven| {
-                if !last {
-                    return groups.evaluate(u);
-                }
-                let (end_x, end_sliders) = self.whole_end(cascade, (z, modes, sliders), u);
-                self.shaped_evaluation(&end_x, &end_sliders, |slots, changes| {
-                    shaped = Some(ShapedAt {
-                        x: end_x,
-                        sliders: end_sliders,
-                        changes,
+            let mut end_changes = None;
+            let mut end_evaluation =
+                |u: &Driven, (rates, events): (&mut Driven, &mut Events), made: &mut Option<_>| {
+                    if !last {
+                        (*rates, *events) = groups.evaluate(u);
+                        return;
+                    }
+                    *end_at = self.whole_end(cascade, (z, modes, &sliders), u);
+                    (*rates, *events) = self.shaped_evaluation(&end_at.0, &end_at.1, |slots, changes| {
+                        *made = Some(changes);
+                        groups.laid_out(cascade, slots, u)
                     });
-                    groups.laid_out(cascade, slots, u)
-                })
-            };
+                };
             if in_one_direction(&inputs[..groups.count()]) {
                 let mut search = InteriorSearch::new(&events);
-                let mut at_end = None;
                 let middle = |u: &Driven| {
                     search.sample(1, 0.5 * length, &groups.events(u));
                     (search.found() == (None, None)).then_some(())
                 };
-                let end_rates = |u: &Driven| {
-                    let evaluation = end_evaluation(u);
-                    let rates = evaluation.0;
-                    at_end = Some(evaluation);
-                    Some(rates)
+                let mut evaluated = false;
+                let end_rates_of = |u: &Driven| {
+                    end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
+                    evaluated = true;
+                    Some(end_rates)
                 };
-                let euler = exponential_euler(&linear, &w, &rates, middle, end_rates, &error_of);
-                if let (Some((end, error)), Some(evaluation)) = (euler, at_end) {
-                    search.sample(2, 0.5 * length, &evaluation.1);
+                let euler = exponential_euler(&linear, &w, &rates, middle, end_rates_of, &error_of);
+                if let (Some((end, error)), true) = (euler, evaluated) {
+                    search.sample(2, 0.5 * length, &end_events);
                     if search.found() != (None, None) {
                         return None;
                     }
@@ -474,7 +467,7 @@ impl SlidingStep<'_> {
                     let (accepted, factor) = resize(error, 1.0);
                     if accepted {
                         (w, t, taken) = (end, t + length, taken + 1);
-                        (evaluated, end_shaped) = (Some(evaluation), shaped.take());
+                        (kept, changes) = (true, end_changes);
                         length *= factor;
                         continue;
                     }
@@ -485,33 +478,31 @@ impl SlidingStep<'_> {
             // Each stage clear of its event, and the parabola through the event values at
             // the start, the stage and the end too.
             let mut stage_events = events;
-            let mut at_end = None;
             let stage_rates = |stage: usize, u: &Driven| {
-                let evaluation = if stage == 1 {
-                    groups.evaluate(u)
+                let rates = if stage == 1 {
+                    let rates;
+                    (rates, stage_events) = groups.evaluate(u);
+                    if !all_clear(&stage_events) {
+                        return None;
+                    }
+                    rates
                 } else {
-                    end_evaluation(u)
+                    end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
+                    if !all_clear(&end_events) {
+                        return None;
+                    }
+                    end_rates
                 };
-                if !all_clear(&evaluation.1) {
-                    return None;
-                }
-                let rates = evaluation.0;
-                if stage == 1 {
-                    stage_events = evaluation.1;
-                } else {
-                    at_end = Some(evaluation);
-                }
                 Some(rates)
             };
             let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
-            let evaluation = at_end?;
-            if !peaks_clear(&events, &stage_events, &evaluation.1) {
+            if !peaks_clear(&events, &stage_events, &end_events) {
                 return None;
             }
             let (accepted, factor) = resize(error_of(&end, &third), EXPRB42_MARGIN);
             if accepted {
                 (w, t, taken) = (end, t + length, taken + 1);
-                (evaluated, end_shaped) = (Some(evaluation), shaped);
+                (kept, changes) = (true, end_changes);
             }
             length *= factor;
         }
