@@ -11,26 +11,40 @@
 //! - **Driven groups.** Each depends on the drivers only through that sum, and on no
 //!   other driven group: its rates are its members' deflections' and the two `q`s',
 //!   which follow `dq/dt = 1 + mu q`. So the driven groups and the `q`s (ten entries at
-//!   most, where the whole system has twelve) are stepped together by exprb43
-//!   ([`super::exponential::exprb43`]), whose linear part is a few small blocks: each
+//!   most, where the whole system has twelve) are stepped together by exponential
+//!   methods ([`super::exponential`]), whose linear part is a few small blocks: each
 //!   group's own two by two, its column for each `q`, and each `q`'s `mu`. The `q`s are
-//!   linear, so the substep carries them exactly. Where exponential Euler is already
-//!   within the tolerance (a slide in one direction), the substep ends after its second
-//!   evaluation with exprb43's third-order companion ([`super::exponential::Exprb43`]),
-//!   and the event values at its end are sampled in place of its third. The groups are
-//!   evaluated side by side, so that their projections' Newton steps overlap.
+//!   linear, so a substep carries them exactly. Both methods evaluate the rates at the
+//!   substep's end, and that evaluation serves twice: as the next substep's start, and
+//!   at the step's end as the outputs' shaping, made from the end's states and branches
+//!   as the outputs are made on demand ([`super::SlidingStep::shaped_evaluation`]), so
+//!   that the outputs need no pass of their own and have the same bits.
+//!   - A slide in one direction (every group outside its ellipse has at most
+//!     [`ONE_DIRECTION_SHARE`] of its utilisation across it) turns its force so little
+//!     that exponential Euler is within the tolerance: one evaluation a substep, its
+//!     error estimated from the end's rates ([`super::exponential::exponential_euler`]),
+//!     and the event values sampled half way as well.
+//!   - Otherwise (or where Euler is not within it), exprb42: fourth order from a stage
+//!     at three quarters and the end ([`super::exponential::exprb42`]).
+//!
+//!   The groups are evaluated side by side, so that their projections' Newton steps
+//!   overlap.
 //! - **A stiff slide** (a stiff tire at a light load, whose groups turn their forces far
 //!   faster than the step): the driven groups by linearly implicit Euler extrapolation,
 //!   as the whole system's stiff substeps, but each Euler step solves each group's own two
 //!   by two, and the `q`s are set in closed form where it ends. The drivers' closed form
 //!   holds at any stiffness.
 //!
-//! This takes the usual step: every group keeps its mode throughout. A driver's event
-//! value follows its deflection, which moves monotonically, so its values at the ends
-//! decide; a driven group's are sampled at the substeps' stages as the whole system's
-//! exponential substep samples them. Where a group is near its event, or the driven
-//! groups need more substeps than a step should, the whole-system path takes the step
-//! from its start ([`super::SlidingStep::integrate`]).
+//! This takes the usual step: every group keeps its mode throughout. Where the friction
+//! is all spring-dampers with every limit above zero, the step decides the modes at its
+//! start itself (a group slides where its sticking force is outside its ellipse, as the
+//! hybrid system decides it), from the evaluation it starts with ([`Start::Undecided`]).
+//! A driver's event value follows its deflection, which moves monotonically, so its
+//! values at the ends decide; a driven group's are sampled at each substep's start,
+//! stage and end, and the parabola through them is kept clear of the event too. Where a
+//! group is near its event, or the driven groups need more substeps than a step should,
+//! the whole-system path takes the step from its start, its modes prepared
+//! ([`super::SlidingStep::integrate`]).
 
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize};
