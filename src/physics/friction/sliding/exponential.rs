@@ -348,6 +348,22 @@ fn phi(k: usize, j: usize) -> f64 {
     INVERSE_FACTORIAL[j + k]
 }
 
+/// `phi1(X) f(z)`, and the stage a fraction `c` of the substep on, `z + c H phi1(c X)
+/// f(z)`, from one series (`powers` holds `c^j`).
+fn whole_and_stage<const E: usize>(
+    linear: &impl LinearPart<E>,
+    z: &[f64; E],
+    f0: &[f64; E],
+    (c, powers): (f64, &[f64; MAX_TERMS]),
+) -> Option<([f64; E], [f64; E])> {
+    let [whole, part] = linear.series(f0, |j| [phi(1, j), phi(1, j) * powers[j]])?;
+    let mut stage = *z;
+    for k in 0..E {
+        stage[k] += c * linear.length() * part[k];
+    }
+    Some((whole, stage))
+}
+
 /// `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates (`z` with its rates `f0`).
 fn remainder<const E: usize>(
     linear: &impl LinearPart<E>,
@@ -388,10 +404,9 @@ pub(super) fn exponential_euler<const E: usize>(
     error: &ErrorOf<'_, E>,
 ) -> Option<([f64; E], f64)> {
     let length = linear.length();
-    let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
-    let (mut at_middle, mut end) = (*z, *z);
+    let (whole, at_middle) = whole_and_stage(linear, z, f0, (0.5, &HALF_POWERS))?;
+    let mut end = *z;
     for c in 0..E {
-        at_middle[c] += 0.5 * length * half[c];
         end[c] += length * whole[c];
     }
     middle(&at_middle)?;
@@ -415,12 +430,7 @@ pub(super) fn exprb43<const E: usize>(
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
 ) -> Option<([f64; E], [f64; E])> {
     let length = linear.length();
-    // phi1(X) f and phi1(X/2) f from one series.
-    let [whole, half] = linear.series(f0, |j| [phi(1, j), phi(1, j) * HALF_POWERS[j]])?;
-    let mut middle = *z;
-    for c in 0..E {
-        middle[c] += 0.5 * length * half[c];
-    }
+    let (whole, middle) = whole_and_stage(linear, z, f0, (0.5, &HALF_POWERS))?;
     let d2 = remainder(linear, (z, f0), &middle, &stage_rates(1, &middle)?);
     let [d2_phi1, d2_phi3, d2_phi4] = linear.series(&d2, |j| [phi(1, j), phi(3, j), phi(4, j)])?;
     let mut end = *z;
@@ -450,12 +460,7 @@ pub(super) fn exprb42<const E: usize>(
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
 ) -> Option<([f64; E], [f64; E])> {
     let length = linear.length();
-    // phi1(X) f and phi1(3X/4) f from one series.
-    let [whole, part] = linear.series(f0, |j| [phi(1, j), phi(1, j) * THREE_QUARTER_POWERS[j]])?;
-    let mut stage = *z;
-    for c in 0..E {
-        stage[c] += 0.75 * length * part[c];
-    }
+    let (whole, stage) = whole_and_stage(linear, z, f0, (0.75, &THREE_QUARTER_POWERS))?;
     let d2 = remainder(linear, (z, f0), &stage, &stage_rates(1, &stage)?);
     let [d2_phi3] = linear.series(&d2, |j| [phi(3, j)])?;
     let mut euler = *z;
