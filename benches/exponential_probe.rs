@@ -9,20 +9,22 @@
 //! view of the tire, [`Tire::continuous_rates`]) are integrated over the step by:
 //!
 //! - a reference: classical Runge-Kutta with 4000 substeps (checked against 2000);
-//! - exponential Euler: `z + h phi1(hJ) f(z)`, one evaluation, its error estimated by
-//!   its difference from exprb32 below, which takes the rates at Euler's end; a step
-//!   takes Euler's end where that estimate is within the tolerance, and "euler/est." is
-//!   the most its error reached of the estimate (over steps where the estimate is above
-//!   1e-13 of the state, ten times the reference's own error);
+//! - exponential Euler: `z + h phi1(hJ) f(z)`, one evaluation, its error estimated from
+//!   the rates at its end by `h D / 3` (exprb32's correction `2 h phi3(hJ) D` below,
+//!   with `phi3` at its largest, `1/6`); a step takes Euler's end where that estimate is
+//!   within the tolerance, and "euler/est." is the most its error reached of the
+//!   estimate (over steps where the estimate is above 1e-13 of the state, ten times the
+//!   reference's own error);
 //! - exprb32 (Hochbruck, Ostermann, Schweitzer 2009): two evaluations, third order;
 //! - exprb43: three evaluations, fourth order, with its embedded third-order solution,
 //!   whose difference is the error estimate a step would be controlled by;
 //! - exprb42 (Luan and Ostermann): `z + h phi1(hJ) f(z) + 32/9 h phi3(hJ) D2` with its
 //!   stage at three quarters, fourth order from two evaluations where `hJ` is small, its
 //!   error estimated against `z + h phi1(hJ) f(z) + 2 h phi3(hJ) D3` from the rates at its
-//!   own end; "42/est." is the most its error reached of that estimate (over steps where
-//!   the estimate is above 1e-13 of the state). A step would take its end, whose rates
-//!   it has made (the next substep's start, or the outputs').
+//!   own end, as `h (32/9 D2 - 2 D3) / 6` (`phi3` at its largest); "42/est." is the most
+//!   its error reached of that estimate (over steps where the estimate is above 1e-13 of
+//!   the state). A step takes its end, whose rates it has made (the next substep's
+//!   start, or the outputs').
 //!
 //! `J` is the Jacobian of the rates at the start (central differences: its error, near
 //! 1e-10 relative, enters a step as `h^2 dJ f`, below 1e-14 of the states here). A step
@@ -181,8 +183,9 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
         &euler + (&phi3 * 16.0 - &phi4 * 48.0) * &d2 * STEP + (&phi3 * -2.0 + &phi4 * 12.0) * &d3 * STEP;
     let embedded = &euler + &phi3 * (&d2 * 16.0 - &d3 * 2.0) * STEP;
     let stage = &z0 + &three_quarters_phi1 * &f0 * (0.75 * STEP);
-    let exprb42 = &euler + &phi3 * remainder(&stage) * (32.0 / 9.0 * STEP);
-    let exprb42_third = &euler + &phi3 * remainder(&exprb42) * (2.0 * STEP);
+    let d_stage = remainder(&stage);
+    let exprb42 = &euler + &phi3 * &d_stage * (32.0 / 9.0 * STEP);
+    let exprb42_third = &exprb42 - (&d_stage * (32.0 / 9.0) - remainder(&exprb42) * 2.0) * (STEP / 6.0);
 
     // The Co-Simulation step from the same start, in the same modes: where it leaves the
     // fixed-mode reference, a mode changed inside the step.
@@ -197,7 +200,7 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     errors.exprb32 = errors.exprb32.max(error(&exprb32));
     errors.exprb43 = errors.exprb43.max(error(&exprb43));
     errors.exprb43_estimate = errors.exprb43_estimate.max((&exprb43 - &embedded).amax() / scale);
-    let euler_estimate = (&exprb32 - &euler).amax() / scale;
+    let euler_estimate = (&d_euler * (STEP / 3.0)).amax() / scale;
     if euler_estimate > 1e-13 {
         errors.euler_of_estimate = errors.euler_of_estimate.max(error(&euler) / euler_estimate);
     }

@@ -47,7 +47,9 @@
 //! ([`super::SlidingStep::integrate`]).
 
 use super::events::{InteriorSearch, NEAR_EVENT};
-use super::exponential::{EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize};
+use super::exponential::{
+    EULER_MARGIN, EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize,
+};
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
 use super::modes::{LimitChanges, ShapedSlots};
@@ -478,7 +480,7 @@ impl SlidingStep<'_> {
                         return None;
                     }
                     // The estimate is of the end taken.
-                    let (accepted, factor) = resize(error, 1.0);
+                    let (accepted, factor) = resize(error, EULER_MARGIN);
                     if accepted {
                         (w, t, taken) = (end, t + length, taken + 1);
                         (kept, changes) = (true, end_changes);
