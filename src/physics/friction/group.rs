@@ -42,8 +42,8 @@ pub struct GroupLaw {
     inverse_limit: [f64; MAX_MEMBERS],
     weight: [f64; MAX_MEMBERS],
     inverse_damping: [f64; MAX_MEMBERS],
-    /// The fastest of its damped members' `K_k / Dw_k` (1/s; zero for springs): how fast
-    /// a sliding spring-damper relaxes ([`GroupInput::sliding_rate`]).
+    /// The fastest of its members' `K_k / Dw_k` (1/s): how fast a sliding spring-damper
+    /// relaxes ([`GroupInput::sliding_rate`]; not read for springs).
     relaxation_rate: f64,
 }
 
@@ -206,7 +206,7 @@ pub const MAX_TOGETHER: usize =
     crate::physics::friction::Group::COUNT * crate::physics::friction::MAX_BRANCHES;
 
 /// [`GroupInput::evaluate`] of each of `inputs` in its mode, the same values: the damped
-/// groups that slide take their projections side by side ([`closest_points_together`]).
+/// groups that slide take their projections side by side ([`closest_points_where`]).
 pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut [GroupOutput]) {
     let count = inputs.len().min(MAX_TOGETHER);
     let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
@@ -231,25 +231,10 @@ pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut 
     }
 }
 
-/// [`GroupInput::closest_point`] of each damped group's trial force (with its
-/// utilisation, above zero), the same values, side by side: the Newton steps of one
-/// group's multiplier need not wait for another's (each waits on the last of its own).
-pub fn closest_points_together(
-    inputs: &[GroupInput],
-    trials: &[Members; MAX_TOGETHER],
-    utilisations: &[f64; MAX_TOGETHER],
-) -> [Members; MAX_TOGETHER] {
-    let count = inputs.len().min(MAX_TOGETHER);
-    let lambdas = multipliers_together(&inputs[..count], trials, utilisations, &[true; MAX_TOGETHER]);
-    let mut points = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
-    for j in 0..count {
-        points[j] = inputs[j].projected(&trials[j], lambdas[j]);
-    }
-    points
-}
-
-/// [`closest_points_together`] of the groups `j` with `which[j]` only (each trial force's
-/// utilisation above zero), by slot: zero for the others.
+/// [`GroupInput::closest_point`] of the trial force of each group `j` with `which[j]`
+/// (its utilisation above zero), the same values, by slot (zero for the others), side by
+/// side: the Newton steps of one group's multiplier need not wait for another's (each
+/// waits on the last of its own).
 pub fn closest_points_where(
     inputs: &[GroupInput],
     trials: &[Members; MAX_TOGETHER],
@@ -370,9 +355,9 @@ impl GroupLaw {
         self.stiffness[m] = stiffness;
         self.damping[m] = damping;
         self.inverse_damping[m] = if damping > 0.0 { damping.recip() } else { 0.0 };
-        if damping > 0.0 {
-            self.relaxation_rate = self.relaxation_rate.max(stiffness / damping);
-        }
+        // As the members' `K / Dw` folded by `f64::max`: an undamped member's is infinite
+        // (a group damped in one direction only slides stiffly in the other).
+        self.relaxation_rate = self.relaxation_rate.max(stiffness / damping);
         self.set_limit(m, limit);
         self.count += 1;
         self

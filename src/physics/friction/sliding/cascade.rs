@@ -48,7 +48,7 @@
 
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{
-    EULER_MARGIN, EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize,
+    EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize, resize_euler,
 };
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
@@ -116,10 +116,10 @@ fn clear(event: f64) -> bool {
 }
 
 /// Whether the parabola through each group's event values at a substep's start, its
-/// stage (three quarters on) and its end keeps as clear of the event within the substep
-/// as the samples must be ([`clear`]): a limit touched and left again between them shows.
-fn peaks_clear(first: &Events, stage: &Events, last: &Events) -> bool {
-    const C: f64 = 0.75;
+/// stage (the fraction `c` of it on) and its end keeps as clear of the event within the
+/// substep as the samples must be ([`clear`]): a limit touched and left again between
+/// them shows.
+fn peaks_clear(first: &Events, stage: &Events, last: &Events, c: f64) -> bool {
     for ((&e0, &e1), &e2) in first
         .as_flattened()
         .iter()
@@ -130,7 +130,7 @@ fn peaks_clear(first: &Events, stage: &Events, last: &Events) -> bool {
             continue;
         }
         // `e(s) = e0 + slope s + curvature s^2` through the three samples.
-        let curvature = ((e1 - e0) - C * (e2 - e0)) / (C * C - C);
+        let curvature = ((e1 - e0) - c * (e2 - e0)) / (c * c - c);
         let slope = (e2 - e0) - curvature;
         if curvature < 0.0 {
             let s = -slope / (2.0 * curvature);
@@ -144,8 +144,9 @@ fn peaks_clear(first: &Events, stage: &Events, last: &Events) -> bool {
 
 /// Below this share of its utilisation in its lesser direction, a damped group slides
 /// in one direction: its force hardly turns on the ellipse, and exponential Euler is
-/// within the tolerance (DDT's slide yardstick: the lateral case's shares are 1e-6 to
-/// 1e-3 and Euler is taken; the combined case's 1e-3 to 0.5, where it would not be).
+/// within the tolerance (DDT's slide yardstick: the lateral case's shares are 1e-7 to
+/// 1e-4, a few up to 1e-3, and Euler is taken; the combined case's mostly 1e-3 to 0.5,
+/// where it would not be).
 const ONE_DIRECTION_SHARE: f64 = 1e-3;
 
 /// Whether every group of `inputs` whose sticking force is outside its ellipse has at
@@ -191,7 +192,14 @@ impl SlidingStep<'_> {
         if deciding && !self.cascade_decides() {
             return None;
         }
-        let (z, mut modes) = (self.layout.pack(x, sliders), sliders.sliding);
+        let z = self.layout.pack(x, sliders);
+        // Deciding, every slot's mode is decided below (the cascade's slots are all), and
+        // a group's branches that have no slot stick, as preparing leaves them.
+        let mut modes = if deciding {
+            [[false; MAX_BRANCHES]; Group::COUNT]
+        } else {
+            sliders.sliding
+        };
         let states = self.layout.model_states(&z);
         let largest = largest_of(&z);
         let slots = self.slots();
@@ -293,23 +301,10 @@ impl SlidingStep<'_> {
         (end_x, end_sliders)
     }
 
-    /// Whether a cascade step may decide the modes at its start itself: every group is
-    /// damped (it slides where its sticking force is outside its ellipse, and nothing is
-    /// put on a limit) and every limit is above zero (no deflection is dropped), so that
-    /// preparing the step would move nothing. A group the cascade finds near its limit
-    /// there is not clear of its event, and the step is left to the prepared path.
-    fn cascade_decides(&self) -> bool {
-        self.limits.0.iter().all(|&limit| limit > 0.0) && self.slots().iter().all(|slot| slot.law.damped())
-    }
-
-    /// The fastest of the sliding groups' [`GroupInput::sliding_rate`] in `modes`, as
-    /// preparing finds it.
-    fn fastest_sliding_rate(&self, modes: &Modes) -> f64 {
-        self.slots()
-            .iter()
-            .filter(|slot| modes[slot.group][slot.branch])
-            .map(|slot| GroupInput::at_rest(&slot.law).sliding_rate())
-            .fold(0.0, f64::max)
+    /// Whether the model's elements form a cascade and the step suits it
+    /// ([`SlidingStep::cascade`]).
+    pub(super) fn cascade_applies(&self) -> bool {
+        self.cascade().is_some()
     }
 
     /// The cascade of this step's slots, if the model's elements form one
@@ -395,6 +390,9 @@ impl SlidingStep<'_> {
         let mut end_rates = rates;
         let mut end_events = events;
         let mut kept = false;
+        // Whether `w` moved since `rates` were made there (by a substep whose end was not
+        // evaluated: a stiff one's).
+        let mut stale = false;
         let mut changes = None;
         // Each pass evaluates where the last substep ended (the last pass only the event
         // values there), so the loop has a pass more than the substeps.
@@ -408,10 +406,10 @@ impl SlidingStep<'_> {
             }
             if kept {
                 (rates, events) = (end_rates, end_events);
-            } else if taken > 0 {
+            } else if stale {
                 (rates, events) = groups.evaluate(&w);
             }
-            (kept, changes) = (false, None);
+            (kept, stale, changes) = (false, false, None);
             // Made again where they are used, not carried with the rates.
             let (inputs, _) = groups.inputs(&w);
             if !all_clear(&events) {
@@ -432,7 +430,7 @@ impl SlidingStep<'_> {
                         Implicit::NearEvent => return None,
                     };
                 if let Some(end) = end {
-                    (w, t, taken) = (end, t + length, taken + 1);
+                    (w, t, taken, stale) = (end, t + length, taken + 1, true);
                 }
                 length *= factor;
                 continue;
@@ -461,34 +459,29 @@ impl SlidingStep<'_> {
                         groups.laid_out(cascade, slots, u)
                     });
                 };
+            // Each sample clear of its event, and the parabola through the event values at
+            // the start, the stage and the end too.
             if in_one_direction(&inputs[..groups.count()]) {
-                let mut search = InteriorSearch::new(&events);
+                let mut middle_events = events;
                 let middle = |u: &Driven| {
-                    search.sample(1, 0.5 * length, &groups.events(u));
-                    (search.found() == (None, None)).then_some(())
+                    middle_events = groups.events(u);
+                    all_clear(&middle_events).then_some(())
                 };
-                let mut evaluated = false;
                 let end_rates_of = |u: &Driven| {
                     end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
-                    evaluated = true;
-                    Some(end_rates)
+                    all_clear(&end_events).then_some(end_rates)
                 };
-                let euler = exponential_euler(&linear, &w, &rates, middle, end_rates_of, &error_of);
-                if let (Some((end, error)), true) = (euler, evaluated) {
-                    search.sample(2, 0.5 * length, &end_events);
-                    if search.found() != (None, None) {
-                        return None;
-                    }
-                    // The estimate is of the end taken.
-                    let (accepted, factor) = resize(error, EULER_MARGIN);
-                    if accepted {
-                        (w, t, taken) = (end, t + length, taken + 1);
-                        (kept, changes) = (true, end_changes);
-                        length *= factor;
-                        continue;
-                    }
-                } else if search.found() != (None, None) {
+                let (end, error) = exponential_euler(&linear, &w, &rates, middle, end_rates_of, &error_of)?;
+                if !peaks_clear(&events, &middle_events, &end_events, 0.5) {
                     return None;
+                }
+                // The estimate is of the end taken, and grows as the substep's cube.
+                let (accepted, factor) = resize_euler(error);
+                if accepted {
+                    (w, t, taken) = (end, t + length, taken + 1);
+                    (kept, changes) = (true, end_changes);
+                    length *= factor;
+                    continue;
                 }
             }
             // Each stage clear of its event, and the parabola through the event values at
@@ -512,7 +505,7 @@ impl SlidingStep<'_> {
                 Some(rates)
             };
             let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
-            if !peaks_clear(&events, &stage_events, &end_events) {
+            if !peaks_clear(&events, &stage_events, &end_events, 0.75) {
                 return None;
             }
             let (accepted, factor) = resize(error_of(&end, &third), EXPRB42_MARGIN);
@@ -709,7 +702,7 @@ impl<'s> DrivenGroups<'s> {
     }
 
     /// Every driven group's rates and event value at `w`, evaluated side by side (their
-    /// projections' Newton steps overlap), with their inputs there.
+    /// projections' Newton steps overlap).
     fn evaluate(&self, w: &Driven) -> (Driven, Events) {
         let (inputs, sliding) = self.inputs(w);
         let mut outputs = [GroupOutput::default(); MAX_BRANCHES];

@@ -94,7 +94,7 @@ const NEGLIGIBLE: f64 = 1e-3;
 /// How many times the tolerance the embedded estimate may be. It is the third-order
 /// solution's error; the fourth-order one taken is far closer: over the slide
 /// yardstick's steps, 20 to 700 times (`cargo bench --bench exponential_probe`).
-pub(super) const ESTIMATE_MARGIN: f64 = 20.0;
+const ESTIMATE_MARGIN: f64 = 20.0;
 
 /// How many times the tolerance exprb42's estimate may be: its fourth-order end's error
 /// was at most 0.10 of the estimate over DDT's slides in one direction and in two (`cargo
@@ -103,9 +103,10 @@ pub(super) const ESTIMATE_MARGIN: f64 = 20.0;
 pub(super) const EXPRB42_MARGIN: f64 = 5.0;
 
 /// How many times the tolerance exponential Euler's estimate of its own error may be: its
-/// error was at most 1.1 times the estimate over DDT's slides (column "euler/est."), so
-/// its end stays within the tolerance.
-pub(super) const EULER_MARGIN: f64 = 0.9;
+/// error was at most 1.1 times the estimate over DDT's slides (column "euler/est."), a
+/// maximum over sampled whole steps, so this keeps its end within the tolerance with
+/// room for steps the probe did not sample.
+pub(super) const EULER_MARGIN: f64 = 0.5;
 
 /// The band of turns in which an exponential substep is not tried: a sliding spring
 /// group's least-moved member returned to the ellipse by between a thousandth of its
@@ -337,13 +338,27 @@ impl SlidingStep<'_> {
 }
 
 /// Whether a substep whose estimate is `error_ratio` times the tolerance is taken (at
-/// most `margin` times: [`ESTIMATE_MARGIN`], [`EXPRB42_MARGIN`], or [`EULER_MARGIN`]
-/// where the estimate is the taken end's own error), and the factor by which the next (or the one tried
-/// again) is to be longer. The estimate is a third-order solution's error (~ length^4);
-/// it aims at a third of the allowed.
+/// most `margin` times: [`ESTIMATE_MARGIN`] or [`EXPRB42_MARGIN`]), and the factor by
+/// which the next (or the one tried again) is to be longer. The estimate is a third-order
+/// solution's error (~ length^4); it aims at a third of the allowed.
 pub(super) fn resize(error_ratio: f64, margin: f64) -> (bool, f64) {
     let error = error_ratio / margin;
     let factor = 0.9 / (3.0 * error).max(1e-10).sqrt().sqrt();
+    resized(error, factor)
+}
+
+/// [`resize`] for exponential Euler's estimate of its own error ([`EULER_MARGIN`]), which
+/// grows as the substep's cube: its error is second order, its estimate `H D3 / 3` with
+/// `D3 ~ H^2`.
+pub(super) fn resize_euler(error_ratio: f64) -> (bool, f64) {
+    let error = error_ratio / EULER_MARGIN;
+    resized(error, 0.9 / (3.0 * error).max(1e-10).cbrt())
+}
+
+/// Whether an error of `error` allowances is taken, and the growth `factor` clamped: at
+/// most four times longer, and where not taken at least a fifth as long and a tenth
+/// shorter.
+fn resized(error: f64, factor: f64) -> (bool, f64) {
     if error <= 1.0 {
         (true, factor.clamp(0.2, 4.0))
     } else {
@@ -422,6 +437,9 @@ pub(super) fn exponential_euler<const E: usize>(
         end[c] += length * whole[c];
     }
     middle(&at_middle)?;
+    if !end.iter().all(|v| v.is_finite()) {
+        return None;
+    }
     let d3 = remainder(linear, (z, f0), &end, &end_rates(&end)?);
     // `2 H phi3(X) D3` with `phi3(X)` at its largest, `1/6` (as where the slide's modes
     // decay, `X <= 0`): an estimate no smaller, and no series of its own.
@@ -429,7 +447,10 @@ pub(super) fn exponential_euler<const E: usize>(
     for c in 0..E {
         third[c] += length / 3.0 * d3[c];
     }
-    (end.iter().chain(&third).all(|v| v.is_finite())).then(|| (end, error(&third, &end)))
+    third
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| (end, error(&third, &end)))
 }
 
 /// One exprb43 substep of `X = H J` from `z` with its rates `f0` (see the module's doc):
@@ -492,7 +513,7 @@ pub(super) fn exprb42<const E: usize>(
     for c in 0..E {
         third[c] -= length / 6.0 * ((32.0 / 9.0) * d2[c] - 2.0 * d3[c]);
     }
-    Some((end, third))
+    third.iter().all(|v| v.is_finite()).then_some((end, third))
 }
 
 #[cfg(test)]

@@ -432,6 +432,17 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
         h: f64,
     ) -> Result<Option<ShapedEnd>, NotConverged> {
+        self.integrate_from(x, sliders, h, true)
+    }
+
+    /// [`SlidingStep::integrate`], trying the cascade first where `by_cascade`.
+    fn integrate_from(
+        &self,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        h: f64,
+        by_cascade: bool,
+    ) -> Result<Option<ShapedEnd>, NotConverged> {
         self.stiff.set(false);
         self.exponential_declined.set(false);
         self.high_order_declined.set(false);
@@ -444,7 +455,10 @@ impl<'a> SlidingStep<'a> {
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
-        if let Some(changes) = self.cascade_step(x, sliders, h, cascade::Start::Prepared { stiff: crawls }) {
+        if by_cascade
+            && let Some(changes) =
+                self.cascade_step(x, sliders, h, cascade::Start::Prepared { stiff: crawls })
+        {
             return Ok(changes.and_then(|changes| self.shaped_end(sliders, changes)));
         }
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
@@ -470,7 +484,10 @@ impl<'a> SlidingStep<'a> {
             return Ok(changes.and_then(|changes| self.shaped_end(sliders, changes)));
         }
         self.prepare(x, sliders);
-        self.integrate(x, sliders, h)
+        // Where the cascade decided the modes and gave the step up, it would again from
+        // the prepared ones (the same, or a group at its limit, where it gives up).
+        let tried = self.cascade_decides() && self.cascade_applies();
+        self.integrate_from(x, sliders, h, !tried)
     }
 
     /// [`SlidingStep::integrate`] by the method [`SlidingStep::stiff`] says.

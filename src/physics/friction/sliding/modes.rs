@@ -5,10 +5,9 @@
 //! which Model Exchange exposes.
 
 use super::super::group::{
-    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, closest_points_together,
-    closest_points_where,
+    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, closest_points_where,
 };
-use super::super::{Direction, EVENT_TOLERANCE, MAX_BRANCHES, SliderState};
+use super::super::{Direction, EVENT_TOLERANCE, Group, MAX_BRANCHES, SliderState};
 use super::{Events, Modes, SlidingStep};
 use crate::physics::state_space::StateVector;
 
@@ -46,37 +45,44 @@ pub struct ShapedEnd {
 
 impl<'a> SlidingStep<'a> {
     /// The [`ShapedEnd`] of a step that ended in `sliders`' modes with `changes` from its
-    /// last evaluation, where that is the outputs' whole shaping: every group damped
-    /// (nothing is put on its ellipse) and every limit above zero (no direction's
-    /// deflection is dropped). Every group keeps the mode it ended in, clear of its event:
-    /// deciding them there would find them again.
+    /// last evaluation, where that is the outputs' whole shaping
+    /// ([`SlidingStep::cascade_decides`]). Every group keeps the mode it ended in, clear of
+    /// its event: deciding them there would find them again.
     pub(super) fn shaped_end(&self, sliders: &SliderState, changes: LimitChanges) -> Option<ShapedEnd> {
-        if !self.friction.damped() || self.limits.0.iter().any(|&limit| limit <= 0.0) {
-            return None;
-        }
-        let mut fastest = 0.0_f64;
-        for slot in self.slots() {
-            if !slot.law.damped() {
-                return None;
-            }
-            if sliders.sliding[slot.group][slot.branch] {
-                fastest = fastest.max(GroupInput::at_rest(&slot.law).sliding_rate());
-            }
-        }
-        Some(ShapedEnd {
+        self.cascade_decides().then(|| ShapedEnd {
             changes,
             preparation: Preparation {
                 sliding: sliders.sliding,
-                sliding_rate: fastest,
+                sliding_rate: self.fastest_sliding_rate(&sliders.sliding),
             },
         })
+    }
+
+    /// Whether the modes follow from the sticking forces alone: every group is damped (it
+    /// slides where its sticking force is outside its ellipse, and nothing is put on a
+    /// limit) and every limit is above zero (no deflection is dropped), so that preparing
+    /// a step moves nothing. Then a cascade step decides the modes at its start itself
+    /// (a group it finds near its limit there is not clear of its event, and the step is
+    /// left to the prepared path), and the outputs' shaping decides them with the forces.
+    pub(super) fn cascade_decides(&self) -> bool {
+        self.limits.0.iter().all(|&limit| limit > 0.0) && self.slots().iter().all(|slot| slot.law.damped())
+    }
+
+    /// The fastest of the sliding groups' [`GroupInput::sliding_rate`] in `modes`, as
+    /// preparing finds it.
+    pub(super) fn fastest_sliding_rate(&self, modes: &Modes) -> f64 {
+        self.slots()
+            .iter()
+            .filter(|slot| modes[slot.group][slot.branch])
+            .map(|slot| GroupInput::at_rest(&slot.law).sliding_rate())
+            .fold(0.0, f64::max)
     }
 
     /// Brings the branches to the step's limits and inputs at its start: a spring force
     /// outside its limit is put on it (the load fell), and each group's mode is decided
     /// from its state. Returns true if every group sticks strictly inside its limit.
     pub fn prepare(&self, x: &mut StateVector, sliders: &mut SliderState) -> bool {
-        self.decide_modes(x, sliders, false, None).inside
+        self.decide_modes(x, sliders, false).inside
     }
 
     /// [`SlidingStep::prepare`] as `preparation` found it at the same states, inputs,
@@ -88,25 +94,40 @@ impl<'a> SlidingStep<'a> {
     }
 
     /// [`SlidingStep::prepare`], and then [`SlidingStep::damper_force_changes`] at the
-    /// prepared states: from the same evaluation where preparing moved no deflection,
-    /// which also gives the [`Preparation`] a step from these states would make.
+    /// prepared states, with the [`Preparation`] a step from these states would make
+    /// where preparing moved no deflection. Where every group is damped and every limit
+    /// above zero ([`SlidingStep::cascade_decides`]) preparing moves nothing and each
+    /// group slides where its sticking force is outside its ellipse: the modes come from
+    /// the same pass that shapes the forces.
     pub fn prepare_with_damper_force_changes(
         &self,
         x: &mut StateVector,
         sliders: &mut SliderState,
     ) -> ([f64; Direction::COUNT], Option<Preparation>) {
-        let mut change = [0.0; Direction::COUNT];
-        // Where a deflection was moved (a frictionless direction's too, whose damper's
-        // share goes), the changes are made at the prepared states.
-        if self.decide_modes(x, sliders, false, Some(&mut change)).moved {
-            (self.damper_force_changes(x, sliders), None)
-        } else {
+        if self.cascade_decides() {
+            let (changes, sliding) = self.shaped_evaluation(x, sliders, |slots, changes| {
+                let mut sliding = [[false; MAX_BRANCHES]; Group::COUNT];
+                for (j, slot) in self.slots().iter().enumerate() {
+                    sliding[slot.group][slot.branch] = slots.outside[j];
+                }
+                (changes, sliding)
+            });
             let preparation = Preparation {
-                sliding: sliders.sliding,
-                sliding_rate: self.start_sliding_rate.get(),
+                sliding,
+                sliding_rate: self.fastest_sliding_rate(&sliding),
             };
-            (change, Some(preparation))
+            self.prepare_from(sliders, &preparation);
+            return (changes, Some(preparation));
         }
+        let moved = self.decide_modes(x, sliders, false).moved;
+        let preparation = Preparation {
+            sliding: sliders.sliding,
+            sliding_rate: self.start_sliding_rate.get(),
+        };
+        (
+            self.damper_force_changes(x, sliders),
+            (!moved).then_some(preparation),
+        )
     }
 
     /// At an event of the hybrid system ([`crate::physics::tire::hybrid`]): as
@@ -115,18 +136,16 @@ impl<'a> SlidingStep<'a> {
     /// inward): its slider slips as the limit falls. (A step holds the load, so it needs no
     /// such rule.)
     pub fn update_modes(&self, x: &mut StateVector, sliders: &mut SliderState) {
-        self.decide_modes(x, sliders, true, None);
+        self.decide_modes(x, sliders, true);
     }
 
-    /// With `damper_changes`, also adds up [`SlidingStep::damper_force_changes`] at the
-    /// states as they come, where nothing was moved (those are then the prepared ones;
-    /// where something was, the caller makes them at the prepared states).
+    /// The modes at the step's start, a spring force past its limit put on it (see
+    /// [`SlidingStep::prepare`]; `pushed_out_slides` as [`SlidingStep::update_modes`]).
     fn decide_modes(
         &self,
         x: &mut StateVector,
         sliders: &mut SliderState,
         pushed_out_slides: bool,
-        damper_changes: Option<&mut [f64; Direction::COUNT]>,
     ) -> Decided {
         let layout = &self.layout;
         let mut z = layout.pack(x, sliders);
@@ -148,17 +167,12 @@ impl<'a> SlidingStep<'a> {
         let states = layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut fastest = 0.0_f64;
-        // Gathered only where the changes are asked for.
-        let mut outside = damper_changes.is_some().then_some(DampedOutside::NONE);
         for slot in self.slots() {
             let input = self.slot_input(slot, &states, &rates, &z);
             let sliding = if input.damped() {
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
                 inside &= utilisation < 1.0;
-                if let Some(outside) = outside.as_mut() {
-                    outside.add(&input, trial, utilisation);
-                }
                 utilisation > 1.0
             } else {
                 let force = input.spring_force();
@@ -180,11 +194,6 @@ impl<'a> SlidingStep<'a> {
             }
         }
         self.start_sliding_rate.set(fastest);
-        if let (Some(change), Some(outside)) = (damper_changes, outside)
-            && !moved
-        {
-            outside.add_changes(&outside.closest_points(), change);
-        }
         if moved {
             *x = layout.unpack(&z, sliders);
         }
@@ -245,7 +254,7 @@ impl<'a> SlidingStep<'a> {
             &shaped.utilisations,
             &shaped.outside,
         );
-        // In the order of the slots, as [`DampedOutside::add_changes`] adds them.
+        // In the order of the slots.
         for j in 0..slots.len() {
             if shaped.outside[j] {
                 let input = &shaped.inputs[j];
@@ -333,53 +342,6 @@ impl ShapedSlots<'_> {
             input.damped_evaluated(sliding, self.trials[j], self.utilisations[j], &self.points[j])
         } else {
             input.evaluate(sliding)
-        }
-    }
-}
-
-/// The damped groups whose sticking force is outside the ellipse (`utilisation > 1`), as
-/// a pass over the slots finds them, so that their closest points are made side by side
-/// ([`closest_points_together`]): each a few Newton steps, which one after another would
-/// wait on each other's roots and divisions.
-struct DampedOutside<'s> {
-    inputs: [GroupInput<'s>; MAX_TOGETHER],
-    trials: [Members; MAX_TOGETHER],
-    utilisations: [f64; MAX_TOGETHER],
-    count: usize,
-}
-
-impl<'s> DampedOutside<'s> {
-    const NONE: DampedOutside<'static> = DampedOutside {
-        inputs: [GroupInput::at_rest(&GroupLaw::EMPTY); MAX_TOGETHER],
-        trials: [[0.0; MAX_MEMBERS]; MAX_TOGETHER],
-        utilisations: [0.0; MAX_TOGETHER],
-        count: 0,
-    };
-
-    /// A damped group with its sticking force `trial` and that force's utilisation; kept
-    /// if it is outside, and then its place among them.
-    fn add(&mut self, input: &GroupInput<'s>, trial: Members, utilisation: f64) -> Option<usize> {
-        if utilisation > 1.0 && self.count < MAX_TOGETHER {
-            let k = self.count;
-            (self.inputs[k], self.trials[k], self.utilisations[k]) = (*input, trial, utilisation);
-            self.count += 1;
-            return Some(k);
-        }
-        None
-    }
-
-    /// Each group's closest point of its ellipse, in the order the groups came.
-    fn closest_points(&self) -> [Members; MAX_TOGETHER] {
-        closest_points_together(&self.inputs[..self.count], &self.trials, &self.utilisations)
-    }
-
-    /// Adds to `change` (by direction) what each group's limit does to its force: its
-    /// closest point `points` less the trial, in the order the groups came.
-    fn add_changes(&self, points: &[Members; MAX_TOGETHER], change: &mut [f64; Direction::COUNT]) {
-        for (k, input) in self.inputs[..self.count].iter().enumerate() {
-            for m in input.members() {
-                change[input.direction[m]] += points[k][m] - self.trials[k][m];
-            }
         }
     }
 }
