@@ -248,6 +248,8 @@ pub struct SlidingSlots {
     pub(super) layout: Layout,
     pub(super) slots: [Slot; Group::COUNT * MAX_BRANCHES],
     pub(super) count: usize,
+    /// Whether every slot's group is damped (made with the slots).
+    pub(super) all_damped: bool,
 }
 
 /// The reciprocals of a step's branch limits `phi_i Fmax`, made as `(1 / phi_i) (1 / Fmax)`:
@@ -367,5 +369,8 @@ impl Friction {
                 }
             }
         }
+        laid_out.all_damped = laid_out.slots[..laid_out.count]
+            .iter()
+            .all(|slot| slot.law.damped());
     }
 }

@@ -164,6 +164,8 @@ pub struct SlidingStep<'a> {
     layout: &'a Layout,
     /// Each group and branch with a member ([`SlidingSlots`]).
     slots: &'a [Slot],
+    /// Whether every slot's group is damped.
+    all_damped: bool,
     /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
@@ -234,6 +236,7 @@ impl<'a> SlidingStep<'a> {
             scale: Self::deflection_scale(friction, &limits, start_scale),
             layout: &laid_out.layout,
             slots: &laid_out.slots[..laid_out.count],
+            all_damped: laid_out.all_damped,
             stiff: Cell::new(false),
             exponential_declined: Cell::new(false),
             high_order_declined: Cell::new(false),

@@ -65,7 +65,7 @@ impl<'a> SlidingStep<'a> {
     /// (a group it finds near its limit there is not clear of its event, and the step is
     /// left to the prepared path), and the outputs' shaping decides them with the forces.
     pub(super) fn cascade_decides(&self) -> bool {
-        self.limits.0.iter().all(|&limit| limit > 0.0) && self.slots().iter().all(|slot| slot.law.damped())
+        self.all_damped && self.limits.0.iter().all(|&limit| limit > 0.0)
     }
 
     /// The fastest of the sliding groups' [`GroupInput::sliding_rate`] in `modes`, as
