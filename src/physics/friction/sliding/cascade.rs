@@ -52,7 +52,7 @@ use super::exponential::{
 };
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
-use super::modes::{LimitChanges, ShapedSlots};
+use super::modes::{LimitChanges, ShapedEnd, ShapedSlots};
 use super::{
     Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, STIFF_STEP, SliderState, SlidingStep, Slot, Vector,
 };
@@ -160,9 +160,9 @@ fn in_one_direction(inputs: &[GroupInput]) -> bool {
 /// How a cascade step starts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum Start {
-    /// From the modes prepared ([`SlidingStep::prepare`]), and whether a sliding group
-    /// there turns its force far faster than the step.
-    Prepared { stiff: bool },
+    /// From the modes prepared ([`SlidingStep::prepare`]), with the fastest sliding rate
+    /// preparing found.
+    Prepared,
     /// The step decides the modes: each group's from its sticking force at the start, as
     /// the cascade evaluates it ([`SlidingStep::cascade_decides`]).
     Undecided,
@@ -176,17 +176,17 @@ fn q_at(mu: f64, t: f64) -> f64 {
 
 impl SlidingStep<'_> {
     /// The step of `h` seconds group by group (see the module's doc): with `x` and
-    /// `sliders` at its end, and what the damped groups' limits take off their sticking
-    /// forces there where its last evaluation was at its end, made as the outputs make it
-    /// ([`SlidingStep::shaped_evaluation`]); `None` (both unchanged) where it is left to
-    /// the whole-system path.
+    /// `sliders` at its end, and the outputs' shaping there where its last evaluation was
+    /// at its end, made as the outputs make it ([`SlidingStep::shaped_evaluation`],
+    /// [`SlidingStep::shaped_end`]); `None` (both unchanged) where it is left to the
+    /// whole-system path.
     pub(super) fn cascade_step(
         &self,
         x: &mut StateVector,
         sliders: &mut SliderState,
         h: f64,
         start: Start,
-    ) -> Option<Option<LimitChanges>> {
+    ) -> Option<Option<ShapedEnd>> {
         let cascade = self.cascade()?;
         let deciding = start == Start::Undecided;
         if deciding && !self.cascade_decides() {
@@ -256,27 +256,31 @@ impl SlidingStep<'_> {
         // Where the last substep's end was evaluated as the outputs are made: the states
         // and branches there (written by that evaluation, not moved out of it).
         let mut end_at = (*x, *sliders);
-        let (driven, changes) = match DrivenGroups::new(self, &cascade, modes, &sum) {
-            Some(mut groups) => {
-                let w = groups.start(&end);
-                if deciding {
-                    groups.decide(&w);
-                    modes = groups.modes;
-                }
-                let stiff = match start {
-                    Start::Prepared { stiff } => stiff,
-                    Start::Undecided => h * self.fastest_sliding_rate(&modes) > STIFF_STEP,
-                };
+        let mut groups = DrivenGroups::new(self, &cascade, modes, &sum);
+        let w = groups.as_ref().map(|groups| groups.start(&end));
+        if let (Some(groups), Some(w), true) = (groups.as_mut(), w, deciding) {
+            groups.decide(&w);
+            modes = groups.modes;
+        }
+        // How fast the sliding groups relax, as preparing finds it: whether they crawl
+        // through an explicit substep, and what the end's preparation carries.
+        let fastest = match start {
+            Start::Prepared => self.start_sliding_rate.get(),
+            Start::Undecided => self.fastest_sliding_rate(&modes),
+        };
+        let stiff = h * fastest > STIFF_STEP;
+        let (driven, changes) = match (groups, w) {
+            (Some(groups), Some(w)) => {
                 self.driven_step(&cascade, &groups, w, (&end, &mut end_at), (h, largest, stiff))?
             }
             // No planar group has a member (no limit in either direction): nothing to step.
-            None => ([0.0; DRIVEN], None),
+            _ => ([0.0; DRIVEN], None),
         };
         (*x, *sliders) = match changes {
             Some(_) => end_at,
             None => self.whole_end(&cascade, (&end, &modes, sliders), &driven),
         };
-        Some(changes)
+        Some(changes.and_then(|changes| self.shaped_end(&modes, fastest, changes)))
     }
 
     /// The states and branches at the end `driven` of the driven groups, with the
@@ -386,13 +390,12 @@ impl SlidingStep<'_> {
         // the last substep's end where an explicit one evaluated it (in place, as the
         // pieces of an evaluation are not moved); and what the limits take off the forces
         // where that end was the step's.
-        let (mut rates, mut events) = groups.evaluate(&w);
-        let mut end_rates = rates;
-        let mut end_events = events;
+        let (mut rates, mut events) = ([0.0; DRIVEN], [[NO_EVENT; MAX_BRANCHES]; Group::COUNT]);
+        let (mut end_rates, mut end_events) = (rates, events);
         let mut kept = false;
-        // Whether `w` moved since `rates` were made there (by a substep whose end was not
-        // evaluated: a stiff one's).
-        let mut stale = false;
+        // Whether `rates` are not yet made where `w` is: at the start, and after a substep
+        // whose end was not evaluated (a stiff one's).
+        let mut stale = true;
         let mut changes = None;
         // Each pass evaluates where the last substep ended (the last pass only the event
         // values there), so the loop has a pass more than the substeps.
@@ -404,14 +407,15 @@ impl SlidingStep<'_> {
                 }
                 return all_clear(&groups.events(&w)).then_some((w, None));
             }
+            // The inputs at `w` (made where they are used, not carried with the rates):
+            // for the slopes, and for the evaluation there where none was kept.
+            let (inputs, sliding) = groups.inputs(&w);
             if kept {
                 (rates, events) = (end_rates, end_events);
             } else if stale {
-                (rates, events) = groups.evaluate(&w);
+                (rates, events) = groups.evaluate_inputs(&w, (&inputs, &sliding));
             }
             (kept, stale, changes) = (false, false, None);
-            // Made again where they are used, not carried with the rates.
-            let (inputs, _) = groups.inputs(&w);
             if !all_clear(&events) {
                 return None;
             }
@@ -705,14 +709,32 @@ impl<'s> DrivenGroups<'s> {
     /// projections' Newton steps overlap).
     fn evaluate(&self, w: &Driven) -> (Driven, Events) {
         let (inputs, sliding) = self.inputs(w);
+        self.evaluate_inputs(w, (&inputs, &sliding))
+    }
+
+    /// [`DrivenGroups::evaluate`] at `w` from its inputs and modes there
+    /// ([`DrivenGroups::inputs`]).
+    fn evaluate_inputs(
+        &self,
+        w: &Driven,
+        (inputs, sliding): (&[GroupInput; MAX_BRANCHES], &[bool; MAX_BRANCHES]),
+    ) -> (Driven, Events) {
         let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
         let count = self.count;
         evaluate_together(&inputs[..count], &sliding[..count], &mut outputs[..count]);
+        self.laid_out_from(w, |n| outputs[n])
+    }
+
+    /// The driven groups' rates and event values at `w` laid out from each group's
+    /// `output(n)` (rates, forces and event value), and the `q`s' rates.
+    #[inline(always)]
+    fn laid_out_from(&self, w: &Driven, output: impl Fn(usize) -> GroupOutput) -> (Driven, Events) {
         let mut rates = [0.0; DRIVEN];
         let mut events: Events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
         for (n, slot) in self.slots().enumerate() {
-            rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&outputs[n].rate);
-            events[slot.group][slot.branch] = outputs[n].event;
+            let output = output(n);
+            rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&output.rate);
+            events[slot.group][slot.branch] = output.event;
         }
         rates[Q[0]..=Q[1]].copy_from_slice(&self.q_rates(w));
         (rates, events)
@@ -729,15 +751,10 @@ impl<'s> DrivenGroups<'s> {
     /// [`SlidingStep::shaped_evaluation`] found it: the driven groups' rates and event
     /// values laid out as it lays them out.
     fn laid_out(&self, cascade: &Cascade, shaped: &ShapedSlots, w: &Driven) -> (Driven, Events) {
-        let mut rates = [0.0; DRIVEN];
-        let mut events: Events = [[NO_EVENT; MAX_BRANCHES]; Group::COUNT];
-        for (n, (slot, &j)) in self.slots().zip(&cascade.driven[..self.count]).enumerate() {
-            let output = shaped.output(j, self.modes[slot.group][slot.branch]);
-            rates[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&output.rate);
-            events[slot.group][slot.branch] = output.event;
-        }
-        rates[Q[0]..=Q[1]].copy_from_slice(&self.q_rates(w));
-        (rates, events)
+        self.laid_out_from(w, |n| {
+            let slot = self.slots[n];
+            shaped.output(cascade.driven[n], self.modes[slot.group][slot.branch])
+        })
     }
 
     /// Each group's [`Slopes`] at its `inputs` there, whose rates are `rates`
@@ -886,12 +903,12 @@ mod tests {
             with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
             let stiff = h * step.start_sliding_rate.get() > super::super::STIFF_STEP;
             let (mut x_cascade, mut sliders_cascade) = (x, sliders);
-            let changes = step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, super::Start::Prepared { stiff });
-            prop_assume!(changes.is_some());
+            let shaped = step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, super::Start::Prepared);
+            prop_assume!(shaped.is_some());
             // What the limits take off the sticking forces at the end, where the step's
             // last evaluation was there: the outputs' own projections there, the same bits.
-            if let Some(Some(changes)) = changes {
-                prop_assert_eq!(changes, step.damper_force_changes(&x_cascade, &sliders_cascade));
+            if let Some(Some(shaped)) = shaped {
+                prop_assert_eq!(shaped.changes, step.damper_force_changes(&x_cascade, &sliders_cascade));
             }
             let (mut x_whole, mut sliders_whole) = (x, sliders);
             step.stiff.set(stiff);

@@ -67,26 +67,20 @@ use crate::physics::stepper::phi::inverse_factorials;
 const MAX_TERMS: usize = 30;
 /// `1/k!` as far as the longest series of `phi4` reads.
 const INVERSE_FACTORIAL: [f64; MAX_TERMS + 5] = inverse_factorials();
-/// `2^-j`, for `phi1(X / 2)` from the powers of `X`.
-const HALF_POWERS: [f64; MAX_TERMS] = {
+/// `c^j`, for `phi1(c X)` from the powers of `X`.
+const fn powers_of(c: f64) -> [f64; MAX_TERMS] {
     let mut table = [1.0; MAX_TERMS];
     let mut j = 1;
     while j < MAX_TERMS {
-        table[j] = 0.5 * table[j - 1];
+        table[j] = c * table[j - 1];
         j += 1;
     }
     table
-};
-/// `(3/4)^j`, for `phi1(3X / 4)` from the powers of `X`.
-const THREE_QUARTER_POWERS: [f64; MAX_TERMS] = {
-    let mut table = [1.0; MAX_TERMS];
-    let mut j = 1;
-    while j < MAX_TERMS {
-        table[j] = 0.75 * table[j - 1];
-        j += 1;
-    }
-    table
-};
+}
+/// `2^-j`, for `phi1(X / 2)`.
+const HALF_POWERS: [f64; MAX_TERMS] = powers_of(0.5);
+/// `(3/4)^j`, for `phi1(3X / 4)`.
+const THREE_QUARTER_POWERS: [f64; MAX_TERMS] = powers_of(0.75);
 /// A series ends where a term moves every entry by less than this fraction of the
 /// substep's tolerance.
 const NEGLIGIBLE: f64 = 1e-3;
@@ -391,6 +385,20 @@ fn whole_and_stage<const E: usize>(
     Some((whole, stage))
 }
 
+/// A two-stage method's first stage ([`exprb43`], [`exprb42`]): `phi1(X) f(z)`, and
+/// `D2 = N(U2) - N(z)` at `U2`, the fraction `c` of the substep on ([`whole_and_stage`]),
+/// with the rates there that `stage_rates(1, U2)` gives.
+fn first_stage<const E: usize>(
+    linear: &impl LinearPart<E>,
+    (z, f0): (&[f64; E], &[f64; E]),
+    (c, powers): (f64, &[f64; MAX_TERMS]),
+    stage_rates: &mut impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
+) -> Option<([f64; E], [f64; E])> {
+    let (whole, stage) = whole_and_stage(linear, z, f0, (c, powers))?;
+    let d2 = remainder(linear, (z, f0), &stage, &stage_rates(1, &stage)?);
+    Some((whole, d2))
+}
+
 /// `N(u) - N(z)`, `N(u) = f(u) - J u`, from `u` and its rates (`z` with its rates `f0`).
 fn remainder<const E: usize>(
     linear: &impl LinearPart<E>,
@@ -414,9 +422,10 @@ fn remainder<const E: usize>(
 /// One exponential Euler substep of `X = H J` from `z` with its rates `f0`,
 /// `z' = z + H phi1(X) f(z)`, with its error estimated from the rates at its own end:
 /// exprb32's third-order solution `z' + 2 H phi3(X) D3`, `D3 = N(z') - N(z)`, differs
-/// from it by about Euler's error (taken as `H D3 / 3`, see the module's doc). Where a slide turns its force so little that Euler is within the
-/// tolerance, its end is taken, and the evaluation there (which a caller may make as the
-/// outputs are made) serves the next substep's start: one evaluation a substep.
+/// from it by about Euler's error (taken as `H D3 / 3`, see the module's doc). Where a
+/// slide turns its force so little that Euler is within the tolerance, its end is taken,
+/// and the evaluation there (which a caller may make as the outputs are made) serves the
+/// next substep's start: one evaluation a substep.
 ///
 /// `middle(u)` is given `z + H/2 phi1(X/2) f(z)`, half the substep on (for its event
 /// values); `end_rates(z')` gives the rates at the end. Returns the end and `error(third,
@@ -464,8 +473,7 @@ pub(super) fn exprb43<const E: usize>(
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
 ) -> Option<([f64; E], [f64; E])> {
     let length = linear.length();
-    let (whole, middle) = whole_and_stage(linear, z, f0, (0.5, &HALF_POWERS))?;
-    let d2 = remainder(linear, (z, f0), &middle, &stage_rates(1, &middle)?);
+    let (whole, d2) = first_stage(linear, (z, f0), (0.5, &HALF_POWERS), &mut stage_rates)?;
     let [d2_phi1, d2_phi3, d2_phi4] = linear.series(&d2, |j| [phi(1, j), phi(3, j), phi(4, j)])?;
     let mut end = *z;
     for c in 0..E {
@@ -494,8 +502,7 @@ pub(super) fn exprb42<const E: usize>(
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
 ) -> Option<([f64; E], [f64; E])> {
     let length = linear.length();
-    let (whole, stage) = whole_and_stage(linear, z, f0, (0.75, &THREE_QUARTER_POWERS))?;
-    let d2 = remainder(linear, (z, f0), &stage, &stage_rates(1, &stage)?);
+    let (whole, d2) = first_stage(linear, (z, f0), (0.75, &THREE_QUARTER_POWERS), &mut stage_rates)?;
     let [d2_phi3] = linear.series(&d2, |j| [phi(3, j)])?;
     let mut euler = *z;
     let mut end = *z;

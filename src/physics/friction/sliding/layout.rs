@@ -332,9 +332,9 @@ impl Friction {
         }
     }
 
-    /// The slots of [`Friction::lay_out_sliding`], written where they are kept.
+    /// The slots of [`Friction::lay_out_sliding`], written where they are kept: their
+    /// members here, their limits and relaxation rates as every refresh makes them.
     pub(super) fn fill_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
-        let inverse = BranchLimits::new(self.branches, limits);
         let groups = Self::groups_of(&self.group_members);
         let laid_out = &mut self.sliding_slots;
         laid_out.count = 0;
@@ -354,15 +354,12 @@ impl Friction {
                     let m = slot.law.count;
                     slot.entries[m] = laid_out.layout.branch_entry(d, i).expect("a present element");
                     slot.states[m] = element.state;
-                    slot.relaxation[m] = system.a[(element.state, element.state)];
-                    let (limit, inverse_limit) = inverse.of(self.branches, i, d, limits);
                     slot.law = slot.law.with_member(
                         direction,
                         branch.stiffness_fraction * element.stiffness,
                         branch.stiffness_fraction * element.damping,
-                        limit,
+                        branch.limit_fraction * limits.0[d],
                     );
-                    slot.law.set_limit_and_inverse(m, limit, inverse_limit);
                 }
                 if slot.law.count > 0 {
                     laid_out.count += 1;
@@ -372,5 +369,6 @@ impl Friction {
         laid_out.all_damped = laid_out.slots[..laid_out.count]
             .iter()
             .all(|slot| slot.law.damped());
+        self.refresh_sliding_slots(system, limits);
     }
 }

@@ -458,11 +458,8 @@ impl<'a> SlidingStep<'a> {
         // A sliding group that turns its force far faster than the step (a stiff tire at
         // a light load): the explicit method would crawl.
         let crawls = h * self.start_sliding_rate.get() > STIFF_STEP;
-        if by_cascade
-            && let Some(changes) =
-                self.cascade_step(x, sliders, h, cascade::Start::Prepared { stiff: crawls })
-        {
-            return Ok(changes.and_then(|changes| self.shaped_end(sliders, changes)));
+        if by_cascade && let Some(shaped) = self.cascade_step(x, sliders, h, cascade::Start::Prepared) {
+            return Ok(shaped);
         }
         if !crawls && self.integrate_by_current_method(x, sliders, h).is_ok() {
             return Ok(None);
@@ -483,8 +480,8 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
         h: f64,
     ) -> Result<Option<ShapedEnd>, NotConverged> {
-        if let Some(changes) = self.cascade_step(x, sliders, h, cascade::Start::Undecided) {
-            return Ok(changes.and_then(|changes| self.shaped_end(sliders, changes)));
+        if let Some(shaped) = self.cascade_step(x, sliders, h, cascade::Start::Undecided) {
+            return Ok(shaped);
         }
         self.prepare(x, sliders);
         // Where the cascade decided the modes and gave the step up, it would again from

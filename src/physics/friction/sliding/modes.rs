@@ -44,16 +44,22 @@ pub struct ShapedEnd {
 }
 
 impl<'a> SlidingStep<'a> {
-    /// The [`ShapedEnd`] of a step that ended in `sliders`' modes with `changes` from its
-    /// last evaluation, where that is the outputs' whole shaping
+    /// The [`ShapedEnd`] of a step that ended in the modes `sliding`, whose groups slide
+    /// as fast as `sliding_rate` ([`SlidingStep::fastest_sliding_rate`]), with `changes`
+    /// from its last evaluation, where that is the outputs' whole shaping
     /// ([`SlidingStep::cascade_decides`]). Every group keeps the mode it ended in, clear of
     /// its event: deciding them there would find them again.
-    pub(super) fn shaped_end(&self, sliders: &SliderState, changes: LimitChanges) -> Option<ShapedEnd> {
-        self.cascade_decides().then(|| ShapedEnd {
+    pub(super) fn shaped_end(
+        &self,
+        sliding: &Modes,
+        sliding_rate: f64,
+        changes: LimitChanges,
+    ) -> Option<ShapedEnd> {
+        self.cascade_decides().then_some(ShapedEnd {
             changes,
             preparation: Preparation {
-                sliding: sliders.sliding,
-                sliding_rate: self.fastest_sliding_rate(&sliders.sliding),
+                sliding: *sliding,
+                sliding_rate,
             },
         })
     }
