@@ -39,16 +39,21 @@
 //! is all spring-dampers with every limit above zero, the step decides the modes at its
 //! start itself (a group slides where its sticking force is outside its ellipse, as the
 //! hybrid system decides it), from the evaluation it starts with ([`Start::Undecided`]).
-//! A driver's event value follows its deflection, which moves monotonically, so its
-//! values at the ends decide; a driven group's are sampled at each substep's start,
-//! stage and end, and the parabola through them is kept clear of the event too. Where a
-//! group is near its event, or the driven groups need more substeps than a step should,
-//! the whole-system path takes the step from its start, its modes prepared
-//! ([`super::SlidingStep::integrate`]).
+//! A spring-damper driver's trial force is affine in its deflection, which moves
+//! monotonically, so its event values at the ends decide whether it reaches its limit.
+//! Where it does, the time is found in closed form (the deflection where the trial force
+//! is the limit, and `q(t)` inverted, a logarithm), and the step is split there: the
+//! part before it in the modes of the start, the rest with that driver's mode changed
+//! ([`Start::Given`]). A driven group's event values are sampled at each substep's
+//! start, stage and end, and the parabola through them is kept clear of the event too.
+//! Where a driven group is near its event, or the driven groups need more substeps than
+//! a step should, the whole-system path takes the step from its start, its modes
+//! prepared ([`super::SlidingStep::integrate`]).
 
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{
-    EXPRB42_MARGIN, LinearPart, exponential_euler, exprb42, negligible_term, resize, resize_euler,
+    EXPRB42_MARGIN, LinearPart, euler_within, exponential_euler, exprb42, negligible_term, resize,
+    resize_euler,
 };
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
@@ -56,6 +61,7 @@ use super::modes::{LimitChanges, ShapedEnd, ShapedSlots};
 use super::{
     Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, STIFF_STEP, SliderState, SlidingStep, Slot, Vector,
 };
+use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::group::{
     GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
 };
@@ -79,12 +85,25 @@ const MAX_SUBSTEPS: usize = 8;
 
 /// The cascade of one step: which slots drive and which are driven, and the drivers'
 /// element state.
+/// (Slots by a byte each: small enough to be made where it is kept, not copied there.)
 struct Cascade {
-    drivers: [usize; MAX_TOGETHER],
+    drivers: [u8; MAX_TOGETHER],
     driver_count: usize,
-    driven: [usize; MAX_TOGETHER],
+    driven: [u8; MAX_TOGETHER],
     driven_count: usize,
     driver_state: usize,
+}
+
+impl Cascade {
+    /// The drivers' slots.
+    fn drivers(&self) -> impl Iterator<Item = usize> + '_ {
+        self.drivers[..self.driver_count].iter().map(|&j| usize::from(j))
+    }
+
+    /// The driven slots, in the order of the driven groups.
+    fn driven(&self) -> impl Iterator<Item = usize> + '_ {
+        self.driven[..self.driven_count].iter().map(|&j| usize::from(j))
+    }
 }
 
 /// The drivers' element state over the step: `U0 + R . q(t)`, with each mode's rate `mu`,
@@ -166,6 +185,31 @@ pub(super) enum Start {
     /// The step decides the modes: each group's from its sticking force at the start, as
     /// the cascade evaluates it ([`SlidingStep::cascade_decides`]).
     Undecided,
+    /// From the modes the sliders carry: a part of a step that a driver's change of mode
+    /// splits, before or after it.
+    Given,
+}
+
+/// The most changes of mode of the drivers within one step: a driver's trial force
+/// moves monotonically in each mode, so it reaches its limit at most twice (sliding, in
+/// and through zero to the other side's).
+const MAX_DRIVER_SWITCHES: usize = 2 * MAX_BRANCHES;
+
+/// Where a driver changes mode within a part of a cascade step: `at` seconds into it,
+/// the driver's (group, branch), and the modes of the part (every driver's decided).
+#[derive(Clone, Copy, Debug)]
+struct DriverSwitch {
+    at: f64,
+    branch: (usize, usize),
+    modes: Modes,
+}
+
+/// How a part of a cascade step ended ([`SlidingStep::cascade_part`]).
+enum Part {
+    /// Taken to its end, with the end's shaping where its last evaluation was there.
+    Taken(Option<ShapedEnd>),
+    /// A driver changes mode within it: nothing taken.
+    Switch(DriverSwitch),
 }
 
 /// `t phi1(mu t) = (exp(mu t) - 1) / mu`, and `t` where `mu = 0`.
@@ -179,7 +223,9 @@ impl SlidingStep<'_> {
     /// `sliders` at its end, and the outputs' shaping there where its last evaluation was
     /// at its end, made as the outputs make it ([`SlidingStep::shaped_evaluation`],
     /// [`SlidingStep::shaped_end`]); `None` (both unchanged) where it is left to the
-    /// whole-system path.
+    /// whole-system path. A driver that changes mode within the step splits it there
+    /// ([`DriverSwitch`]): the part before it in the modes of the start, the rest with
+    /// that driver's mode changed.
     pub(super) fn cascade_step(
         &self,
         x: &mut StateVector,
@@ -188,10 +234,50 @@ impl SlidingStep<'_> {
         start: Start,
     ) -> Option<Option<ShapedEnd>> {
         let cascade = self.cascade()?;
-        let deciding = start == Start::Undecided;
-        if deciding && !self.cascade_decides() {
+        if start == Start::Undecided && !self.cascade_decides() {
             return None;
         }
+        // The start, kept once a part is taken (a part not taken leaves both unchanged).
+        let mut kept = None;
+        let (mut t, mut start) = (0.0, start);
+        for _ in 0..=MAX_DRIVER_SWITCHES {
+            match self.cascade_part(&cascade, x, sliders, h - t, start) {
+                Some(Part::Taken(shaped)) => return Some(shaped),
+                Some(Part::Switch(switch)) => {
+                    kept.get_or_insert((*x, *sliders));
+                    // To the switch in the modes the part had (decided, or given).
+                    sliders.sliding = switch.modes;
+                    let Some(Part::Taken(_)) =
+                        self.cascade_part(&cascade, x, sliders, switch.at, Start::Given)
+                    else {
+                        break;
+                    };
+                    let (g, i) = switch.branch;
+                    sliders.sliding[g][i] = !sliders.sliding[g][i];
+                    (t, start) = (t + switch.at, Start::Given);
+                }
+                None => break,
+            }
+        }
+        if let Some(start) = kept {
+            (*x, *sliders) = start;
+        }
+        None
+    }
+
+    /// A part of [`SlidingStep::cascade_step`]: `h` seconds in the modes `start` says,
+    /// taken (with `x` and `sliders` at its end), or where the first driver changes mode
+    /// within it, that change (both unchanged); `None` (unchanged) where the whole-system
+    /// path takes the step.
+    fn cascade_part(
+        &self,
+        cascade: &Cascade,
+        x: &mut StateVector,
+        sliders: &mut SliderState,
+        h: f64,
+        start: Start,
+    ) -> Option<Part> {
+        let deciding = start == Start::Undecided;
         let z = self.layout.pack(x, sliders);
         // Deciding, every slot's mode is decided below (the cascade's slots are all), and
         // a group's branches that have no slot stick, as preparing leaves them.
@@ -212,7 +298,9 @@ impl SlidingStep<'_> {
         };
         // By mode, `q(h)`: the same for every branch in that mode.
         let mut q_end = [None; 2];
-        for &j in &cascade.drivers[..cascade.driver_count] {
+        // The first driver to change mode within the part, if one does.
+        let mut first_switch: Option<DriverSwitch> = None;
+        for j in cascade.drivers() {
             let slot = &slots[j];
             let entry = slot.entries[0];
             let input = self.driver_input(slot, z[entry]);
@@ -243,12 +331,35 @@ impl SlidingStep<'_> {
             // sliding force has (it is the trial's scaled onto the limit).
             let finish = self.driver_input(slot, end[entry]);
             let finish_event = finish.event(sliding);
-            // The deflection moves monotonically, so the force sticking needs (affine in
-            // it) is largest in size at an end: sticking, the ends' event values bound it.
-            // Sliding, its limit's side must stay the same too, or it passed inside.
             let same_side = !sliding || start.force[0] * finish.sticking_force()[0] > 0.0;
-            if !(clear(start.event) && clear(finish_event) && same_side) {
+            if !slot.law.damped() {
+                // A spring's event value is its outward cosine: sampled at the ends only,
+                // they must keep clear of it.
+                if !(clear(start.event) && clear(finish_event) && same_side) {
+                    return None;
+                }
+                continue;
+            }
+            // A spring-damper's trial force is affine in its deflection, which moves
+            // monotonically: its size is largest (or, on one side of zero, least) at an
+            // end, so the ends' event values decide whether it crosses its limit.
+            if start.event.is_nan() || start.event > EVENT_TOLERANCE {
                 return None;
+            }
+            if same_side && finish_event <= EVENT_TOLERANCE {
+                continue;
+            }
+            let at = self.driver_crossing(slot, (z[entry], start.rate[0], mu), &input, &finish, sliding)?;
+            // Past the part's end, its end's event value is rounding's.
+            if at >= h {
+                return None;
+            }
+            if first_switch.is_none_or(|first| at < first.at) {
+                first_switch = Some(DriverSwitch {
+                    at,
+                    branch: (slot.group, slot.branch),
+                    modes,
+                });
             }
         }
         // A mode no driver is in has `mu = 0`: `q(h) = h`.
@@ -256,31 +367,67 @@ impl SlidingStep<'_> {
         // Where the last substep's end was evaluated as the outputs are made: the states
         // and branches there (written by that evaluation, not moved out of it).
         let mut end_at = (*x, *sliders);
-        let mut groups = DrivenGroups::new(self, &cascade, modes, &sum);
+        let mut groups = DrivenGroups::new(self, cascade, modes, &sum);
         let w = groups.as_ref().map(|groups| groups.start(&end));
         if let (Some(groups), Some(w), true) = (groups.as_mut(), w, deciding) {
             groups.decide(&w);
             modes = groups.modes;
         }
+        if let Some(mut switch) = first_switch {
+            // Every group's mode is decided by now.
+            switch.modes = modes;
+            return Some(Part::Switch(switch));
+        }
         // How fast the sliding groups relax, as preparing finds it: whether they crawl
         // through an explicit substep, and what the end's preparation carries.
         let fastest = match start {
             Start::Prepared => self.start_sliding_rate.get(),
-            Start::Undecided => self.fastest_sliding_rate(&modes),
+            Start::Undecided | Start::Given => self.fastest_sliding_rate(&modes),
         };
         let stiff = h * fastest > STIFF_STEP;
         let (driven, changes) = match (groups, w) {
             (Some(groups), Some(w)) => {
-                self.driven_step(&cascade, &groups, w, (&end, &mut end_at), (h, largest, stiff))?
+                self.driven_step(cascade, &groups, w, (&end, &mut end_at), (h, largest, stiff))?
             }
             // No planar group has a member (no limit in either direction): nothing to step.
             _ => ([0.0; DRIVEN], None),
         };
         (*x, *sliders) = match changes {
             Some(_) => end_at,
-            None => self.whole_end(&cascade, (&end, &modes, sliders), &driven),
+            None => self.whole_end(cascade, (&end, &modes, sliders), &driven),
         };
-        Some(changes.and_then(|changes| self.shaped_end(&modes, fastest, changes)))
+        Some(Part::Taken(
+            changes.and_then(|changes| self.shaped_end(&modes, fastest, changes)),
+        ))
+    }
+
+    /// When a spring-damper driver in mode `sliding` from deflection `b0` at rate `rate`
+    /// (its mode's rate `mu`) reaches its limit: where its trial force, affine in the
+    /// deflection `T = (K + Dw A_kk) b + Dw c`, is the limit on the side it leaves from
+    /// (sliding) or moves to (sticking), and `q(t) = (b - b0) / rate` is solved for `t`.
+    /// `None` where that is not a time within reach.
+    fn driver_crossing(
+        &self,
+        slot: &Slot,
+        (b0, rate, mu): (f64, f64, f64),
+        start: &GroupInput,
+        finish: &GroupInput,
+        sliding: bool,
+    ) -> Option<f64> {
+        let law = &slot.law;
+        let (stiffness, damping) = (law.stiffness[0], law.damping[0]);
+        let side = if sliding {
+            start.sticking_force()[0]
+        } else {
+            finish.sticking_force()[0]
+        };
+        let target = law.limit[0].copysign(side);
+        let slope = stiffness + damping * slot.relaxation[0];
+        let offset = damping * self.system.input_rate(slot.states[0], &self.inputs);
+        let q = ((target - offset) / slope - b0) / rate;
+        let x = mu * q;
+        let at = if x == 0.0 { q } else { x.ln_1p() / mu };
+        (at.is_finite() && at > 0.0).then_some(at)
     }
 
     /// The states and branches at the end `driven` of the driven groups, with the
@@ -292,7 +439,7 @@ impl SlidingStep<'_> {
         driven: &Driven,
     ) -> (StateVector, SliderState) {
         let mut end = *end;
-        for (n, &j) in cascade.driven[..cascade.driven_count].iter().enumerate() {
+        for (n, j) in cascade.driven().enumerate() {
             let slot = &self.slots()[j];
             for m in slot.law.members() {
                 end[slot.entries[m]] = driven[entry(n, m)];
@@ -329,10 +476,10 @@ impl SlidingStep<'_> {
         };
         for (j, slot) in self.slots().iter().enumerate() {
             if slot.states[0] == driver {
-                cascade.drivers[cascade.driver_count] = j;
+                cascade.drivers[cascade.driver_count] = j as u8;
                 cascade.driver_count += 1;
             } else {
-                cascade.driven[cascade.driven_count] = j;
+                cascade.driven[cascade.driven_count] = j as u8;
                 cascade.driven_count += 1;
             }
         }
@@ -479,9 +626,15 @@ impl SlidingStep<'_> {
                 if !peaks_clear(&events, &middle_events, &end_events, 0.5) {
                     return None;
                 }
-                // The estimate is of the end taken, and grows as the substep's cube.
-                let (accepted, factor) = resize_euler(error);
-                if accepted {
+                // The estimate is of the end taken, and grows as the substep's cube. The
+                // last substep's growth is not used, and not made (a cube root).
+                let growth = if last {
+                    euler_within(error).then_some(1.0)
+                } else {
+                    let (accepted, factor) = resize_euler(error);
+                    accepted.then_some(factor)
+                };
+                if let Some(factor) = growth {
                     (w, t, taken) = (end, t + length, taken + 1);
                     (kept, changes) = (true, end_changes);
                     length *= factor;
@@ -615,16 +768,15 @@ impl<'s> DrivenGroups<'s> {
     /// `None` where there are none.
     fn new(step: &'s SlidingStep, cascade: &Cascade, modes: Modes, sum: &'s DriverSum) -> Option<Self> {
         let all = step.slots();
-        let driven = &cascade.driven[..cascade.driven_count];
         let mut groups = DrivenGroups {
-            slots: [all.get(*driven.first()?)?; MAX_BRANCHES],
-            count: driven.len(),
+            slots: [all.get(cascade.driven().next()?)?; MAX_BRANCHES],
+            count: cascade.driven_count,
             modes,
             drive: [[0.0; MAX_MEMBERS]; MAX_BRANCHES],
             coupling: [[0.0; MAX_MEMBERS]; MAX_BRANCHES],
             sum,
         };
-        for (n, &j) in driven.iter().enumerate() {
+        for (n, j) in cascade.driven().enumerate() {
             let slot = &all[j];
             groups.slots[n] = slot;
             for m in slot.law.members() {
@@ -753,7 +905,10 @@ impl<'s> DrivenGroups<'s> {
     fn laid_out(&self, cascade: &Cascade, shaped: &ShapedSlots, w: &Driven) -> (Driven, Events) {
         self.laid_out_from(w, |n| {
             let slot = self.slots[n];
-            shaped.output(cascade.driven[n], self.modes[slot.group][slot.branch])
+            shaped.output(
+                usize::from(cascade.driven[n]),
+                self.modes[slot.group][slot.branch],
+            )
         })
     }
 
@@ -859,7 +1014,7 @@ impl LinearPart<DRIVEN> for DrivenLinearPart {
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::with_settled_slide;
+    use super::super::{with_prepared_step, with_settled_slide};
     use crate::physics::friction::{FrictionLaw, SliderState};
     use crate::physics::parameters::STIFF_TREAD;
     use crate::physics::state_space::StateVector;
@@ -931,5 +1086,58 @@ mod tests {
             Ok(())
             })?;
         }
+    }
+
+    /// A yaw branch (a driver) that reaches its limit within a step splits the cascade's
+    /// step there, in closed form: the cascade takes such steps, in the modes the
+    /// whole-system path ends in, and ends within 1e-10 of the largest state or offset
+    /// where it does. The yaw deflections start about their limit, the steer rates move
+    /// them across it; the lateral branches slide (muY 0.01).
+    #[test]
+    fn a_driver_that_reaches_its_limit_splits_the_step() {
+        let mut p = Parameters::default()
+            .with_model(ModelKind::Ddt)
+            .with_friction(FrictionLaw::Brush);
+        p.set(Parameter::LateralFriction, 0.01).unwrap();
+        let load = p.get(Parameter::NominalLoad);
+        let mut switched = 0;
+        for steer_rate in [-0.5, -0.1, 0.1, 0.5] {
+            for k in -20..=20 {
+                let yaw = 0.002 * f64::from(k);
+                let (states, inputs) = ([yaw, 0.3, 0.05], [0.05, steer_rate, 0.01]);
+                with_prepared_step(&p, (10.0, load), (&states, inputs), |step, x, sliders, travel| {
+                    let h = 1e-3;
+                    let (mut x_cascade, mut sliders_cascade) = (x, sliders);
+                    let taken =
+                        step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, super::Start::Prepared);
+                    let yaw = crate::physics::friction::Group::Yaw as usize;
+                    if taken.is_none() || sliders_cascade.sliding[yaw] == sliders.sliding[yaw] {
+                        return;
+                    }
+                    switched += 1;
+                    let (mut x_whole, mut sliders_whole) = (x, sliders);
+                    step.integrate_by_current_method(&mut x_whole, &mut sliders_whole, h)
+                        .expect("a valid step");
+                    assert_eq!(sliders_cascade.sliding, sliders_whole.sliding);
+                    let values = |x: &StateVector, s: &SliderState| {
+                        let mut all: Vec<f64> = x.as_slice()[..3].to_vec();
+                        all.extend(s.offsets.iter().flatten());
+                        all
+                    };
+                    let (cascade, whole) = (
+                        values(&x_cascade, &sliders_cascade),
+                        values(&x_whole, &sliders_whole),
+                    );
+                    let largest = cascade.iter().chain(&whole).fold(travel, |m, v| m.max(v.abs()));
+                    for (c, (a, b)) in cascade.iter().zip(&whole).enumerate() {
+                        assert!(
+                            (a - b).abs() <= 1e-10 * largest,
+                            "value {c}: {a} vs {b} (largest {largest})"
+                        );
+                    }
+                });
+            }
+        }
+        assert!(switched > 0, "no step had a yaw branch change mode");
     }
 }
