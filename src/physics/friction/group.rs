@@ -125,11 +125,13 @@ enum Projection {
 }
 
 /// A search for the projection's multiplier of a group with two members: where it
+/// starts (below the multiplier, as the monotone search needs), where Newton's method
 /// starts, the group's weights `a_k = Dw_k / L_k^2`, and the trial force's
 /// `r_k = (T_k / L_k)^2`.
 #[derive(Clone, Copy, Debug)]
 struct Search {
     start: f64,
+    newton_start: f64,
     weight: Members,
     ratio_squared: Members,
 }
@@ -138,6 +140,7 @@ impl Search {
     /// A place holder where no search is made.
     const NONE: Search = Search {
         start: 0.0,
+        newton_start: 0.0,
         weight: [0.0; MAX_MEMBERS],
         ratio_squared: [0.0; MAX_MEMBERS],
     };
@@ -156,7 +159,7 @@ impl Search {
     /// equal, and close to it where they differ, so two or three steps reach rounding.
     /// `None` if it leaves the admissible range or does not settle.
     fn lambda_by_norm(&self) -> Option<f64> {
-        let mut lambda = self.start;
+        let mut lambda = self.newton_start;
         for _ in 0..NEWTON_STEPS {
             match self.newton_step(lambda)? {
                 Step::Settled(lambda) => return Some(lambda),
@@ -198,6 +201,40 @@ impl Search {
         } else {
             Step::Settled(next)
         })
+    }
+}
+
+/// Below this share of the utilisation in its lesser direction, a projection's Newton
+/// steps start from a fixed-point step ([`newton_start`]).
+const MINOR_SHARE: f64 = 1e-3;
+
+/// Where Newton's method on a projection's multiplier starts, from `start` (the radial
+/// multiplier of the largest weight, below the root). Where one member holds nearly all
+/// of the utilisation and the largest weight (a slide in about one direction), a step of
+/// the fixed point `lambda = (sqrt(r_M / (1 - r_m / p_m^2)) - 1) / a_M` (`M` that member,
+/// `m` the other, `p_m = 1 + lambda a_m`): it contracts by about the lesser share times
+/// `a_m / a_M`, so one step leaves an error of about the square of that share, and the
+/// first Newton step settles. Otherwise `start`.
+#[inline]
+fn newton_start(start: f64, weight: &Members, ratio_squared: &Members, utilisation: f64) -> f64 {
+    let (major, minor) = if ratio_squared[0] >= ratio_squared[1] {
+        (0, 1)
+    } else {
+        (1, 0)
+    };
+    if !(ratio_squared[minor] <= MINOR_SHARE * utilisation && weight[major] >= weight[minor]) {
+        return start;
+    }
+    // `r_M / (1 - r_m / p_m^2)`, with one division.
+    let p_squared = (1.0 + start * weight[minor]).powi(2);
+    let major_share = ratio_squared[major] * p_squared / (p_squared - ratio_squared[minor]);
+    let guess = (major_share.sqrt() - 1.0) / weight[major];
+    // Above the root where `start` is below it; anything else (a NaN, or infinite where
+    // `p_m^2 = r_m`) is not taken.
+    if guess >= start && guess.is_finite() {
+        guess
+    } else {
+        start
     }
 }
 
@@ -273,7 +310,7 @@ fn multipliers_together(
         match inputs[j].projection(&trials[j], utilisations[j]) {
             Projection::Settled(lambda) => lambdas[j] = lambda,
             Projection::Search(search) => {
-                (lambdas[j], searches[j]) = (search.start, search);
+                (lambdas[j], searches[j]) = (search.newton_start, search);
                 going_on[pending] = j;
                 pending += 1;
             }
@@ -768,8 +805,10 @@ impl<'a> GroupInput<'a> {
             [true, true] => {
                 let largest = weight[0].max(weight[1]).max(0.0);
                 let ratio_squared = [0, 1].map(|k| (trial[k] * self.inverse_limit[k]).powi(2));
+                let start = (utilisation.sqrt() - 1.0) / largest;
                 Projection::Search(Search {
-                    start: (utilisation.sqrt() - 1.0) / largest,
+                    start,
+                    newton_start: newton_start(start, &weight, &ratio_squared, utilisation),
                     weight,
                     ratio_squared,
                 })
@@ -987,6 +1026,10 @@ mod tests {
                 ([0.03, 0.0001], [0.01, 0.001]),
                 ([-0.04, 0.01], [-1.0, 200.0]),
                 ([0.0301, 0.0001], [1e-6, 0.0]),
+                // Nearly all of it in the direction of the larger weight: Newton's method
+                // starts from a fixed-point step.
+                ([0.0001, 0.0301], [0.0, 1e-6]),
+                ([1e-6, 0.05], [0.0, 0.01]),
             ] {
                 let input = planar_damped(b, g, [10.0, damping_ratio * 10.0]);
                 let trial = input.sticking_force();
@@ -1000,6 +1043,7 @@ mod tests {
                 let ratio_squared = [0, 1].map(|k| (trial[k] / input.limit[k]).powi(2));
                 let search = Search {
                     start,
+                    newton_start: newton_start(start, &weight, &ratio_squared, utilisation),
                     weight,
                     ratio_squared,
                 };

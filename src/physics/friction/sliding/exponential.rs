@@ -349,6 +349,11 @@ pub(super) fn resize_euler(error_ratio: f64) -> (bool, f64) {
     resized(error, 0.9 / (3.0 * error).max(1e-10).cbrt())
 }
 
+/// Whether [`resize_euler`] takes the substep, without its growth.
+pub(super) fn euler_within(error_ratio: f64) -> bool {
+    error_ratio / EULER_MARGIN <= 1.0
+}
+
 /// Whether an error of `error` allowances is taken, and the growth `factor` clamped: at
 /// most four times longer, and where not taken at least a fifth as long and a tenth
 /// shorter.

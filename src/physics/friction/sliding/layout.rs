@@ -165,8 +165,18 @@ impl Layout {
             z[j] = x[self.free[j]];
         }
         for e in self.elements() {
-            for i in 0..self.branches {
-                z[e.first + i] = x[e.state] + sliders.offsets[e.direction][i];
+            let (state, offsets) = (x[e.state], &sliders.offsets[e.direction]);
+            if self.branches == MAX_BRANCHES {
+                // Pair by pair, as the model states' sums read them (a pair read across
+                // two separate stores stalls until both are written).
+                for i in (0..MAX_BRANCHES).step_by(2) {
+                    z[e.first + i..e.first + i + 2]
+                        .copy_from_slice(&[state + offsets[i], state + offsets[i + 1]]);
+                }
+            } else {
+                for i in 0..self.branches {
+                    z[e.first + i] = state + offsets[i];
+                }
             }
         }
         z
