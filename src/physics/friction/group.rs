@@ -596,6 +596,25 @@ impl<'a> GroupInput<'a> {
         damped_event(self.utilisation(&self.sticking_force()), sliding)
     }
 
+    /// How fast a spring-damper group's event value moves in its mode where its
+    /// deflections move at `rate` and its sticking rates at `sticking_rate_rate`: its
+    /// trial force `T = K b + Dw g` moves at `K rate + Dw sticking_rate_rate`, and the
+    /// utilisation `sum (T_k / L_k)^2` at `2 sum T_k T'_k / L_k^2` ([`damped_event`]).
+    pub fn damped_event_rate(&self, sliding: bool, rate: &Members, sticking_rate_rate: &Members) -> f64 {
+        let trial = self.sticking_force();
+        let mut utilisation_rate = 0.0;
+        for k in 0..MAX_MEMBERS {
+            let trial_rate = self.stiffness[k] * rate[k] + self.damping[k] * sticking_rate_rate[k];
+            let scale = self.inverse_limit[k] * self.inverse_limit[k];
+            utilisation_rate += 2.0 * trial[k] * trial_rate * scale;
+        }
+        if sliding {
+            -utilisation_rate
+        } else {
+            utilisation_rate
+        }
+    }
+
     /// [`RateSlopes`] of the rates [`GroupInput::evaluate`] gives in the same mode, in
     /// closed form: for the stiff integration's Jacobian, which takes them through the
     /// chain rule instead of evaluating the whole system once per entry. `rate` is what

@@ -44,12 +44,19 @@
 //! Where it does, the time is found in closed form (the deflection where the trial force
 //! is the limit, and `q(t)` inverted, a logarithm), and the step is split there: the
 //! part before it in the modes of the start, the rest with that driver's mode changed
-//! ([`Start::Given`]). A driven group's event values are sampled at each substep's
-//! start, stage and end, and the parabola through them is kept clear of the event too.
-//! Where a driven group is near its event, or the driven groups need more substeps than
-//! a step should, the whole-system path takes the step from its start, its modes
-//! prepared ([`super::SlidingStep::integrate`]).
+//! ([`Start::Given`]). A driven group's event values are sampled at each explicit
+//! substep's start, stage and end; where they and the parabola through them keep clear
+//! of the event, it stays in its mode. Where it nears its event, its course over the
+//! substep ([`super::course`], from the samples and the event value's rates at the ends)
+//! shows whether it stays; where a sample is past the event, the crossing is searched
+//! for on exprb42's substeps from the course's guess
+//! ([`super::course::crossing_search`]), the substep ends there and the group changes
+//! mode (its force is continuous there: its trial force is on its limit). Where a group's course is not sure (a spring's, or a touch between
+//! the samples), a stiff substep nears an event, or the driven groups need more
+//! substeps than a step should, the whole-system path takes the step from its start,
+//! its modes prepared ([`super::SlidingStep::integrate`]).
 
+use super::course::{Course, crossing_search};
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{
     EXPRB42_MARGIN, LinearPart, euler_within, exponential_euler, exprb42, negligible_term, resize,
@@ -82,6 +89,10 @@ fn entry(n: usize, m: usize) -> usize {
 /// Substeps the driven groups may take in one step before the whole-system path takes
 /// the step.
 const MAX_SUBSTEPS: usize = 8;
+
+/// Changes of mode of the driven groups within one step before the whole-system path
+/// takes the step.
+const MAX_DRIVEN_SWITCHES: usize = 2 * MAX_BRANCHES;
 
 /// The cascade of one step: which slots drive and which are driven, and the drivers'
 /// element state.
@@ -139,26 +150,62 @@ fn clear(event: f64) -> bool {
 /// substep as the samples must be ([`clear`]): a limit touched and left again between
 /// them shows.
 fn peaks_clear(first: &Events, stage: &Events, last: &Events, c: f64) -> bool {
-    for ((&e0, &e1), &e2) in first
+    first
         .as_flattened()
         .iter()
         .zip(stage.as_flattened())
         .zip(last.as_flattened())
-    {
-        if e0 == NO_EVENT {
-            continue;
-        }
-        // `e(s) = e0 + slope s + curvature s^2` through the three samples.
-        let curvature = ((e1 - e0) - c * (e2 - e0)) / (c * c - c);
-        let slope = (e2 - e0) - curvature;
-        if curvature < 0.0 {
-            let s = -slope / (2.0 * curvature);
-            if (0.0..=1.0).contains(&s) && e0 - slope * slope / (4.0 * curvature) > -NEAR_EVENT {
-                return false;
-            }
+        .all(|((&e0, &e1), &e2)| e0 == NO_EVENT || peak_clear(e0, e1, e2, c))
+}
+
+/// [`peaks_clear`] of one group's event values `e0`, `e1` (the fraction `c` on) and `e2`.
+fn peak_clear(e0: f64, e1: f64, e2: f64, c: f64) -> bool {
+    // `e(s) = e0 + slope s + curvature s^2` through the three samples.
+    let curvature = ((e1 - e0) - c * (e2 - e0)) / (c * c - c);
+    let slope = (e2 - e0) - curvature;
+    if curvature < 0.0 {
+        let s = -slope / (2.0 * curvature);
+        if (0.0..=1.0).contains(&s) && e0 - slope * slope / (4.0 * curvature) > -NEAR_EVENT {
+            return false;
         }
     }
     true
+}
+
+/// Whether every event value of `events` keeps clear of its event ([`clear`]).
+fn all_clear(events: &Events) -> bool {
+    events
+        .iter()
+        .flatten()
+        .all(|&event| event == NO_EVENT || clear(event))
+}
+
+/// Whether no event value of `events` is past its event (nor a NaN).
+fn none_past(events: &Events) -> bool {
+    events.iter().flatten().all(|&event| event <= EVENT_TOLERANCE)
+}
+
+/// Whether no event value of `events` is a NaN.
+fn all_numbers(events: &Events) -> bool {
+    events.iter().flatten().all(|event| !event.is_nan())
+}
+
+/// How the driven groups' event values run over a substep ([`DrivenGroups::samples`]).
+enum Samples {
+    /// Every group stays in its mode.
+    Clear,
+    /// A group crosses its event: the first to, as their courses foretell.
+    Crossing(Crossing),
+}
+
+/// A driven group that crosses its event within a substep: the group, where its course
+/// first reaches the event (the substep's fraction), and the first sample past the
+/// event (its fraction and value), which bounds the search for the crossing.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    group: usize,
+    guess: f64,
+    past: (f64, f64),
 }
 
 /// Below this share of its utilisation in its lesser direction, a damped group slides
@@ -380,14 +427,22 @@ impl SlidingStep<'_> {
         }
         // How fast the sliding groups relax, as preparing finds it: whether they crawl
         // through an explicit substep, and what the end's preparation carries.
-        let fastest = match start {
+        let mut fastest = match start {
             Start::Prepared => self.start_sliding_rate.get(),
             Start::Undecided | Start::Given => self.fastest_sliding_rate(&modes),
         };
         let stiff = h * fastest > STIFF_STEP;
-        let (driven, changes) = match (groups, w) {
+        let (driven, changes) = match (groups.as_mut(), w) {
             (Some(groups), Some(w)) => {
-                self.driven_step(cascade, &groups, w, (&end, &mut end_at), (h, largest, stiff))?
+                let stepped =
+                    self.driven_step(cascade, groups, w, (&end, &mut end_at), (h, largest, stiff))?;
+                // With the changes of mode the driven groups made on the way, and how fast
+                // the groups then slide, as preparing there would find it.
+                if groups.modes != modes {
+                    modes = groups.modes;
+                    fastest = self.fastest_sliding_rate(&modes);
+                }
+                stepped
             }
             // No planar group has a member (no limit in either direction): nothing to step.
             _ => ([0.0; DRIVEN], None),
@@ -505,7 +560,9 @@ impl SlidingStep<'_> {
     /// exponential Euler where the slide is in one direction and that is within the
     /// tolerance, else by exprb42 ([`DrivenLinearPart`]), or for a stiff slide by
     /// linearly implicit Euler extrapolation, whose solves take each group's own two by
-    /// two. The driven vector at the end, or `None` if a group nears its event or they
+    /// two. A group that crosses its event in an explicit substep changes mode there
+    /// (in `groups`' modes; see the module's doc). The driven vector at the end, or
+    /// `None` where a group's course is not sure, a stiff substep nears an event, or they
     /// need more than [`MAX_SUBSTEPS`]. With the end, what the limits take off the
     /// groups' sticking forces there where the last substep's end was evaluated as the
     /// outputs are made (an explicit substep's, [`SlidingStep::shaped_evaluation`]), its
@@ -513,26 +570,20 @@ impl SlidingStep<'_> {
     fn driven_step(
         &self,
         cascade: &Cascade,
-        groups: &DrivenGroups,
+        groups: &mut DrivenGroups,
         mut w: Driven,
         (z, end_at): (&Vector, &mut (StateVector, SliderState)),
         (h, largest, stiff): (f64, f64, bool),
     ) -> Option<(Driven, Option<LimitChanges>)> {
-        let modes = &groups.modes;
         let sliders = end_at.1;
         // The explicit substeps stay as short as the whole system's exponential ones, so
         // that their samples of the event values are as close; the implicit ones try the
         // whole step first, as there.
         let longest = if stiff { h } else { 0.25 * self.longest_substep() };
         let (mut t, mut length, mut taken) = (0.0, h.min(longest), 0);
-        let all_clear = |events: &Events| {
-            events
-                .iter()
-                .flatten()
-                .all(|&event| event == NO_EVENT || clear(event))
-        };
         // Over the groups' deflections: the `q`s are exact.
         let deflections = entry(groups.count(), 0);
+        let negligible = negligible_term(self.scale, largest);
         // The rates and event values where each substep starts: made there, or kept from
         // the last substep's end where an explicit one evaluated it (in place, as the
         // pieces of an evaluation are not moved); and what the limits take off the forces
@@ -541,14 +592,15 @@ impl SlidingStep<'_> {
         let (mut end_rates, mut end_events) = (rates, events);
         let mut kept = false;
         // Whether `rates` are not yet made where `w` is: at the start, and after a substep
-        // whose end was not evaluated (a stiff one's).
+        // whose end was not evaluated (a stiff one's) or where a group changed mode.
         let mut stale = true;
         let mut changes = None;
+        let mut switches = 0;
         // Each pass evaluates where the last substep ended (the last pass only the event
         // values there), so the loop has a pass more than the substeps.
-        for _ in 0..=MAX_SUBSTEPS {
+        for _ in 0..=MAX_SUBSTEPS + MAX_DRIVEN_SWITCHES {
             if t >= h {
-                // An explicit substep's end was evaluated, its events clear there.
+                // An explicit substep's end was evaluated, its events followed there.
                 if kept {
                     return Some((w, changes));
                 }
@@ -563,7 +615,13 @@ impl SlidingStep<'_> {
                 (rates, events) = groups.evaluate_inputs(&w, (&inputs, &sliding));
             }
             (kept, stale, changes) = (false, false, None);
-            if !all_clear(&events) {
+            // The explicit substeps follow a group near its event ([`Course`]); the
+            // implicit ones keep clear of it.
+            if !(if stiff {
+                all_clear(&events)
+            } else {
+                none_past(&events)
+            }) {
                 return None;
             }
             // Substeps that cannot finish the step within the rest at the length the error
@@ -586,91 +644,154 @@ impl SlidingStep<'_> {
                 length *= factor;
                 continue;
             }
-            let linear = groups.linear_part(&slopes, length, negligible_term(self.scale, largest));
             let error_of = |best: &Driven, previous: &Driven| {
                 self.error_ratio_of(
                     (&w[..deflections], &best[..deflections], &previous[..deflections]),
                     largest,
                 )
             };
-            // The rates and event values at the substep's end, into `end_rates` and
-            // `end_events`: at the step's end from its states and branches, as the outputs
-            // are made, so that they come from this evaluation.
-            let last = t + length >= h;
-            let mut end_changes = None;
-            let mut end_evaluation =
-                |u: &Driven, (rates, events): (&mut Driven, &mut Events), made: &mut Option<_>| {
-                    if !last {
-                        (*rates, *events) = groups.evaluate(u);
-                        return;
+            let crossing = {
+                let groups = &*groups;
+                let linear = groups.linear_part(&slopes, length, negligible);
+                // The rates and event values at the substep's end, into `end_rates` and
+                // `end_events`: at the step's end from its states and branches, as the
+                // outputs are made, so that they come from this evaluation.
+                let last = t + length >= h;
+                let mut end_changes = None;
+                let mut end_evaluation =
+                    |u: &Driven, (rates, events): (&mut Driven, &mut Events), made: &mut Option<_>| {
+                        if !last {
+                            (*rates, *events) = groups.evaluate(u);
+                            return;
+                        }
+                        *end_at = self.whole_end(cascade, (z, &groups.modes, &sliders), u);
+                        (*rates, *events) = self.shaped_evaluation(&end_at.0, &end_at.1, |slots, changes| {
+                            *made = Some(changes);
+                            groups.laid_out(cascade, slots, u)
+                        });
+                    };
+                let mut course = None;
+                if in_one_direction(&inputs[..groups.count()]) {
+                    let mut middle_events = events;
+                    let middle = |u: &Driven| {
+                        middle_events = groups.events(u);
+                        all_numbers(&middle_events).then_some(())
+                    };
+                    let end_rates_of = |u: &Driven| {
+                        end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
+                        all_numbers(&end_events).then_some(end_rates)
+                    };
+                    let (end, error) =
+                        exponential_euler(&linear, &w, &rates, middle, end_rates_of, &error_of)?;
+                    let samples = groups.samples(
+                        (&w, &rates, &events),
+                        (0.5, &middle_events),
+                        (&end, &end_rates, &end_events),
+                        length,
+                    )?;
+                    // The estimate is of the end taken, and grows as the substep's cube.
+                    // The last substep's growth is not used, and not made (a cube root).
+                    let growth = if last {
+                        euler_within(error).then_some(1.0)
+                    } else {
+                        let (accepted, factor) = resize_euler(error);
+                        accepted.then_some(factor)
+                    };
+                    if let (Samples::Clear, Some(factor)) = (&samples, growth) {
+                        (w, t, taken) = (end, t + length, taken + 1);
+                        (kept, changes) = (true, end_changes);
+                        length *= factor;
+                        continue;
                     }
-                    *end_at = self.whole_end(cascade, (z, modes, &sliders), u);
-                    (*rates, *events) = self.shaped_evaluation(&end_at.0, &end_at.1, |slots, changes| {
-                        *made = Some(changes);
-                        groups.laid_out(cascade, slots, u)
-                    });
-                };
-            // Each sample clear of its event, and the parabola through the event values at
-            // the start, the stage and the end too.
-            if in_one_direction(&inputs[..groups.count()]) {
-                let mut middle_events = events;
-                let middle = |u: &Driven| {
-                    middle_events = groups.events(u);
-                    all_clear(&middle_events).then_some(())
-                };
-                let end_rates_of = |u: &Driven| {
-                    end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
-                    all_clear(&end_events).then_some(end_rates)
-                };
-                let (end, error) = exponential_euler(&linear, &w, &rates, middle, end_rates_of, &error_of)?;
-                if !peaks_clear(&events, &middle_events, &end_events, 0.5) {
-                    return None;
+                    course = Some(samples);
                 }
-                // The estimate is of the end taken, and grows as the substep's cube. The
-                // last substep's growth is not used, and not made (a cube root).
-                let growth = if last {
-                    euler_within(error).then_some(1.0)
+                // Where Euler is not within the tolerance, or a group crosses its event
+                // (then searched for by exprb42's substeps, which is accurate enough).
+                let crossing = match course {
+                    Some(Samples::Crossing(crossing)) => crossing,
+                    _ => {
+                        let mut stage_events = events;
+                        let stage_rates = |stage: usize, u: &Driven| {
+                            let rates = if stage == 1 {
+                                let rates;
+                                (rates, stage_events) = groups.evaluate(u);
+                                all_numbers(&stage_events).then_some(())?;
+                                rates
+                            } else {
+                                end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
+                                all_numbers(&end_events).then_some(())?;
+                                end_rates
+                            };
+                            Some(rates)
+                        };
+                        let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
+                        let samples = groups.samples(
+                            (&w, &rates, &events),
+                            (0.75, &stage_events),
+                            (&end, &end_rates, &end_events),
+                            length,
+                        )?;
+                        match samples {
+                            Samples::Crossing(crossing) => crossing,
+                            Samples::Clear => {
+                                let (accepted, factor) = resize(error_of(&end, &third), EXPRB42_MARGIN);
+                                if accepted {
+                                    (w, t, taken) = (end, t + length, taken + 1);
+                                    (kept, changes) = (true, end_changes);
+                                }
+                                length *= factor;
+                                continue;
+                            }
+                        }
+                    }
+                };
+                let n = crossing.group;
+                let slot = groups.slots[n];
+                let (g, i) = (slot.group, slot.branch);
+                if events[g][i] >= 0.5 * EVENT_TOLERANCE {
+                    // At its event already, moving past it: it changes mode here.
+                    (crossing, None)
                 } else {
-                    let (accepted, factor) = resize_euler(error);
-                    accepted.then_some(factor)
-                };
-                if let Some(factor) = growth {
-                    (w, t, taken) = (end, t + length, taken + 1);
-                    (kept, changes) = (true, end_changes);
-                    length *= factor;
-                    continue;
-                }
-            }
-            // Each stage clear of its event, and the parabola through the event values at
-            // the start, the stage and the end too.
-            let mut stage_events = events;
-            let stage_rates = |stage: usize, u: &Driven| {
-                let rates = if stage == 1 {
-                    let rates;
-                    (rates, stage_events) = groups.evaluate(u);
-                    if !all_clear(&stage_events) {
+                    // The crossing searched for on exprb42's substeps from the start: where
+                    // the event value is within the tolerance past the event.
+                    let substep_to = |s: f64| {
+                        let linear = groups.linear_part(&slopes, s * length, negligible);
+                        let mut at_end = events;
+                        let stage_rates = |_: usize, u: &Driven| {
+                            let (rates, events);
+                            (rates, events) = groups.evaluate(u);
+                            at_end = events;
+                            Some(rates)
+                        };
+                        let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
+                        Some((end, error_of(&end, &third), at_end))
+                    };
+                    let found = crossing_search(
+                        |s| substep_to(s).map(|(end, error, at_end)| (at_end[g][i], (end, error, at_end))),
+                        events[g][i],
+                        crossing.past,
+                        crossing.guess,
+                    )?;
+                    let (s, (end, error, at_end)) = found;
+                    if !(resize(error, EXPRB42_MARGIN).0 && none_past(&at_end)) {
                         return None;
                     }
-                    rates
-                } else {
-                    end_evaluation(u, (&mut end_rates, &mut end_events), &mut end_changes);
-                    if !all_clear(&end_events) {
-                        return None;
-                    }
-                    end_rates
-                };
-                Some(rates)
+                    (crossing, Some((s, end)))
+                }
             };
-            let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
-            if !peaks_clear(&events, &stage_events, &end_events, 0.75) {
+            // The group changes mode where it crossed (its force is continuous there: its
+            // trial force is on its limit), and the next substep starts from there.
+            let (crossing, reached) = crossing;
+            if let Some((s, end)) = reached {
+                (w, t, taken) = (end, t + s * length, taken + 1);
+            }
+            let slot = groups.slots[crossing.group];
+            let mode = &mut groups.modes[slot.group][slot.branch];
+            *mode = !*mode;
+            (stale, switches) = (true, switches + 1);
+            if switches > MAX_DRIVEN_SWITCHES {
                 return None;
             }
-            let (accepted, factor) = resize(error_of(&end, &third), EXPRB42_MARGIN);
-            if accepted {
-                (w, t, taken) = (end, t + length, taken + 1);
-                (kept, changes) = (true, end_changes);
-            }
-            length *= factor;
         }
         None
     }
@@ -892,6 +1013,88 @@ impl<'s> DrivenGroups<'s> {
         (rates, events)
     }
 
+    /// How fast each driven group's event value moves at `w`, where the driven vector
+    /// moves at `rates`, by group: a spring-damper's ([`GroupInput::damped_event_rate`];
+    /// its sticking rates move with its deflections and, through the coupling, with the
+    /// drivers' state, `R . dq/dt`), NaN for a spring's.
+    fn event_rates(&self, w: &Driven, rates: &Driven) -> [f64; MAX_BRANCHES] {
+        let (inputs, sliding) = self.inputs(w);
+        let sum = self.sum;
+        let driver_rate = sum.by_mode[0] * rates[Q[0]] + sum.by_mode[1] * rates[Q[1]];
+        let mut event_rates = [f64::NAN; MAX_BRANCHES];
+        for (n, slot) in self.slots().enumerate() {
+            if !slot.law.damped() {
+                continue;
+            }
+            let rate = [rates[entry(n, 0)], rates[entry(n, 1)]];
+            let sticking_rate_rate =
+                [0, 1].map(|m| slot.relaxation[m] * rate[m] + self.coupling[n][m] * driver_rate);
+            event_rates[n] = inputs[n].damped_event_rate(sliding[n], &rate, &sticking_rate_rate);
+        }
+        event_rates
+    }
+
+    /// How the driven groups' event values run over an explicit substep of `length`
+    /// seconds from `start` (with its rates and event values) through a stage the
+    /// fraction `c` on (its event values) to `end` (with its rates and event values).
+    /// Clear where every sample keeps clear of its event and so does the parabola through
+    /// them (the usual case, [`peaks_clear`]); otherwise each group near its event is
+    /// followed on its [`Course`]: it stays, or a sample is past its event and the
+    /// crossing is searched for. `None` where a group nears its event and does not
+    /// surely stay (a spring's, or a touch between the samples).
+    fn samples(
+        &self,
+        (start, start_rates, start_events): (&Driven, &Driven, &Events),
+        (c, stage_events): (f64, &Events),
+        (end, end_rates, end_events): (&Driven, &Driven, &Events),
+        length: f64,
+    ) -> Option<Samples> {
+        if [start_events, stage_events, end_events]
+            .iter()
+            .all(|events| all_clear(events))
+            && peaks_clear(start_events, stage_events, end_events, c)
+        {
+            return Some(Samples::Clear);
+        }
+        let (rates_at_start, rates_at_end) = (
+            self.event_rates(start, start_rates),
+            self.event_rates(end, end_rates),
+        );
+        let mut first: Option<Crossing> = None;
+        for (n, slot) in self.slots().enumerate() {
+            let at = |events: &Events| events[slot.group][slot.branch];
+            let (e0, e_stage, e1) = (at(start_events), at(stage_events), at(end_events));
+            if e0 == NO_EVENT || (clear(e0) && clear(e_stage) && clear(e1) && peak_clear(e0, e_stage, e1, c))
+            {
+                continue;
+            }
+            let course = Course::new(
+                (e0, rates_at_start[n] * length),
+                (c, e_stage),
+                (e1, rates_at_end[n] * length),
+            );
+            // The first sample past the event bounds the search for the crossing.
+            let past = if e_stage > EVENT_TOLERANCE {
+                (c, e_stage)
+            } else if e1 > EVENT_TOLERANCE {
+                (1.0, e1)
+            } else if course.stays() {
+                continue;
+            } else {
+                return None;
+            };
+            let guess = course.first_reaching(0.5 * EVENT_TOLERANCE, past.0);
+            if first.is_none_or(|first| guess < first.guess) {
+                first = Some(Crossing {
+                    group: n,
+                    guess,
+                    past,
+                });
+            }
+        }
+        Some(first.map_or(Samples::Clear, Samples::Crossing))
+    }
+
     /// The `q`s' rates at `w`, `dq/dt = 1 + mu q`, the pair whole (as
     /// [`DrivenLinearPart::times`] reads it).
     fn q_rates(&self, w: &Driven) -> [f64; 2] {
@@ -1088,56 +1291,85 @@ mod tests {
         }
     }
 
-    /// A yaw branch (a driver) that reaches its limit within a step splits the cascade's
-    /// step there, in closed form: the cascade takes such steps, in the modes the
-    /// whole-system path ends in, and ends within 1e-10 of the largest state or offset
-    /// where it does. The yaw deflections start about their limit, the steer rates move
-    /// them across it; the lateral branches slide (muY 0.01).
-    #[test]
-    fn a_driver_that_reaches_its_limit_splits_the_step() {
+    /// Where a group changes mode within a step, the cascade takes the step in the modes
+    /// the whole-system path ends in, and ends within 1e-10 of the largest state or offset
+    /// where it does (the count of such steps: at least one).
+    fn changes_of_mode_agree(
+        group: crate::physics::friction::Group,
+        cases: impl Iterator<Item = ([f64; 3], [f64; 3])>,
+    ) -> usize {
         let mut p = Parameters::default()
             .with_model(ModelKind::Ddt)
             .with_friction(FrictionLaw::Brush);
         p.set(Parameter::LateralFriction, 0.01).unwrap();
         let load = p.get(Parameter::NominalLoad);
-        let mut switched = 0;
-        for steer_rate in [-0.5, -0.1, 0.1, 0.5] {
-            for k in -20..=20 {
-                let yaw = 0.002 * f64::from(k);
-                let (states, inputs) = ([yaw, 0.3, 0.05], [0.05, steer_rate, 0.01]);
-                with_prepared_step(&p, (10.0, load), (&states, inputs), |step, x, sliders, travel| {
-                    let h = 1e-3;
-                    let (mut x_cascade, mut sliders_cascade) = (x, sliders);
-                    let taken =
-                        step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, super::Start::Prepared);
-                    let yaw = crate::physics::friction::Group::Yaw as usize;
-                    if taken.is_none() || sliders_cascade.sliding[yaw] == sliders.sliding[yaw] {
-                        return;
-                    }
-                    switched += 1;
-                    let (mut x_whole, mut sliders_whole) = (x, sliders);
-                    step.integrate_by_current_method(&mut x_whole, &mut sliders_whole, h)
-                        .expect("a valid step");
-                    assert_eq!(sliders_cascade.sliding, sliders_whole.sliding);
-                    let values = |x: &StateVector, s: &SliderState| {
-                        let mut all: Vec<f64> = x.as_slice()[..3].to_vec();
-                        all.extend(s.offsets.iter().flatten());
-                        all
-                    };
-                    let (cascade, whole) = (
-                        values(&x_cascade, &sliders_cascade),
-                        values(&x_whole, &sliders_whole),
+        let mut changed = 0;
+        for (states, inputs) in cases {
+            with_prepared_step(&p, (10.0, load), (&states, inputs), |step, x, sliders, travel| {
+                let h = 1e-3;
+                let (mut x_cascade, mut sliders_cascade) = (x, sliders);
+                let taken =
+                    step.cascade_step(&mut x_cascade, &mut sliders_cascade, h, super::Start::Prepared);
+                let g = group as usize;
+                if taken.is_none() || sliders_cascade.sliding[g] == sliders.sliding[g] {
+                    return;
+                }
+                changed += 1;
+                let (mut x_whole, mut sliders_whole) = (x, sliders);
+                step.integrate_by_current_method(&mut x_whole, &mut sliders_whole, h)
+                    .expect("a valid step");
+                assert_eq!(
+                    sliders_cascade.sliding, sliders_whole.sliding,
+                    "{states:?} {inputs:?}"
+                );
+                let values = |x: &StateVector, s: &SliderState| {
+                    let mut all: Vec<f64> = x.as_slice()[..3].to_vec();
+                    all.extend(s.offsets.iter().flatten());
+                    all
+                };
+                let (cascade, whole) = (
+                    values(&x_cascade, &sliders_cascade),
+                    values(&x_whole, &sliders_whole),
+                );
+                let largest = cascade.iter().chain(&whole).fold(travel, |m, v| m.max(v.abs()));
+                for (c, (a, b)) in cascade.iter().zip(&whole).enumerate() {
+                    assert!(
+                        (a - b).abs() <= 1e-10 * largest,
+                        "{states:?} {inputs:?} value {c}: {a} vs {b} (largest {largest})"
                     );
-                    let largest = cascade.iter().chain(&whole).fold(travel, |m, v| m.max(v.abs()));
-                    for (c, (a, b)) in cascade.iter().zip(&whole).enumerate() {
-                        assert!(
-                            (a - b).abs() <= 1e-10 * largest,
-                            "value {c}: {a} vs {b} (largest {largest})"
-                        );
-                    }
-                });
-            }
+                }
+            });
         }
-        assert!(switched > 0, "no step had a yaw branch change mode");
+        changed
+    }
+
+    /// A yaw branch (a driver) that reaches its limit within a step splits the cascade's
+    /// step there, in closed form. The yaw deflections start about their limit, the steer
+    /// rates move them across it; the lateral branches slide (muY 0.01).
+    #[test]
+    fn a_driver_that_reaches_its_limit_splits_the_step() {
+        let cases = [-0.5, -0.1, 0.1, 0.5].into_iter().flat_map(|steer_rate| {
+            (-20..=20).map(move |k| ([0.002 * f64::from(k), 0.3, 0.05], [0.05, steer_rate, 0.01]))
+        });
+        let changed = changes_of_mode_agree(crate::physics::friction::Group::Yaw, cases);
+        assert!(changed > 0, "no step had a yaw branch change mode");
+    }
+
+    /// A lateral and longitudinal branch pair (a driven group) that reaches its limit
+    /// within a step changes mode where its course crosses its event, found by exprb42's
+    /// substeps. The lateral deflections start about the lateral limit (1/80 of the
+    /// travel), the lateral speeds move them across it.
+    #[test]
+    fn a_driven_group_that_reaches_its_limit_changes_mode_within_the_step() {
+        let cases = [-0.2, -0.05, -0.01, 0.01, 0.05, 0.2].into_iter().flat_map(|vy| {
+            (-50..=50).map(move |k| {
+                (
+                    [0.0, 0.0125 * (1.0 + 0.002 * f64::from(k)), 0.001],
+                    [vy, 0.0, 0.0],
+                )
+            })
+        });
+        let changed = changes_of_mode_agree(crate::physics::friction::Group::Planar, cases);
+        assert!(changed > 0, "no step had a planar group change mode");
     }
 }

@@ -54,6 +54,7 @@
 // Groups and branches index several arrays together (modes, events, offsets).
 #![allow(clippy::needless_range_loop)]
 mod cascade;
+mod course;
 mod dormand_prince;
 mod events;
 mod exponential;
