@@ -702,7 +702,8 @@ impl<'a> GroupInput<'a> {
         let along = [0, 1].map(|k| (force[k] * inverse_limit[k]).abs());
         // The member farthest along its limit (the first where they tie; none at zero).
         let farthest_of_first = if along[0] > 0.0 { along[0] } else { 0.0 };
-        let lambda_of = |k: usize| (trial[k] / force[k] - 1.0) / weight[k];
+        // `(T_k / F_k - 1) / a_k`, with one division.
+        let lambda_of = |k: usize| (trial[k] - force[k]) / (force[k] * weight[k]);
         let lambda = if along[1] > farthest_of_first {
             lambda_of(1)
         } else if along[0] > 0.0 {
@@ -713,8 +714,9 @@ impl<'a> GroupInput<'a> {
         let inverse_q = [0, 1].map(|k| (1.0 + lambda * weight[k]).recip());
         let normal = [0, 1].map(|k| force[k] * inverse_limit[k] * inverse_limit[k] * inverse_q[k]);
         let sum = 0.0 + normal[0] * force[0] * weight[0] + normal[1] * force[1] * weight[1];
+        let inverse_sum = if sum != 0.0 { sum.recip() } else { 0.0 };
         for j in 0..MAX_MEMBERS {
-            let multiplier_slope = if sum != 0.0 { normal[j] / sum } else { 0.0 };
+            let multiplier_slope = normal[j] * inverse_sum;
             for k in 0..MAX_MEMBERS {
                 let delta = if k == j { 1.0 } else { 0.0 };
                 let force_slope = (delta - force[k] * weight[k] * multiplier_slope) * inverse_q[k];

@@ -66,7 +66,8 @@ use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
 use super::modes::{LimitChanges, ShapedEnd, ShapedSlots};
 use super::{
-    Events, Group, MAX_BRANCHES, Modes, NO_EVENT, SIZE, STIFF_STEP, SliderState, SlidingStep, Slot, Vector,
+    Events, Group, Layout, MAX_BRANCHES, Modes, NO_EVENT, SIZE, STIFF_STEP, SliderState, SlidingStep, Slot,
+    Vector,
 };
 use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::group::{
@@ -96,8 +97,9 @@ const MAX_DRIVEN_SWITCHES: usize = 2 * MAX_BRANCHES;
 
 /// The cascade of one step: which slots drive and which are driven, and the drivers'
 /// element state.
-/// (Slots by a byte each: small enough to be made where it is kept, not copied there.)
-struct Cascade {
+/// Made with the slots ([`Cascade::of`]), kept with them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Cascade {
     drivers: [u8; MAX_TOGETHER],
     driver_count: usize,
     driven: [u8; MAX_TOGETHER],
@@ -106,6 +108,34 @@ struct Cascade {
 }
 
 impl Cascade {
+    /// The cascade of the slots `slots` laid out in `layout`, where the model's elements
+    /// form one (`driver`, the state of the element driven by the inputs alone,
+    /// [`crate::physics::friction::Friction::cascade_driver`]) and the layout suits it
+    /// (no free states): the driver's branches drive, every other slot is driven.
+    pub(super) fn of(slots: &[Slot], layout: &Layout, driver: Option<usize>) -> Option<Cascade> {
+        let driver = driver?;
+        if layout.free_count != 0 {
+            return None;
+        }
+        let mut cascade = Cascade {
+            driver_state: driver,
+            ..Cascade::default()
+        };
+        for (j, slot) in slots.iter().enumerate().take(MAX_TOGETHER) {
+            if slot.states[0] == driver {
+                cascade.drivers[cascade.driver_count] = j as u8;
+                cascade.driver_count += 1;
+            } else {
+                cascade.driven[cascade.driven_count] = j as u8;
+                cascade.driven_count += 1;
+            }
+        }
+        // The driven entries within the whole vector's count, which the extrapolation of a
+        // stiff substep compares.
+        (cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
+            .then_some(cascade)
+    }
+
     /// The drivers' slots.
     fn drivers(&self) -> impl Iterator<Item = usize> + '_ {
         self.drivers[..self.driver_count].iter().map(|&j| usize::from(j))
@@ -288,14 +318,14 @@ impl SlidingStep<'_> {
         let mut kept = None;
         let (mut t, mut start) = (0.0, start);
         for _ in 0..=MAX_DRIVER_SWITCHES {
-            match self.cascade_part(&cascade, x, sliders, h - t, start) {
+            match self.cascade_part(cascade, x, sliders, h - t, start) {
                 Some(Part::Taken(shaped)) => return Some(shaped),
                 Some(Part::Switch(switch)) => {
                     kept.get_or_insert((*x, *sliders));
                     // To the switch in the modes the part had (decided, or given).
                     sliders.sliding = switch.modes;
                     let Some(Part::Taken(_)) =
-                        self.cascade_part(&cascade, x, sliders, switch.at, Start::Given)
+                        self.cascade_part(cascade, x, sliders, switch.at, Start::Given)
                     else {
                         break;
                     };
@@ -413,7 +443,7 @@ impl SlidingStep<'_> {
         sum.end = q_end.map(|q| q.unwrap_or(h));
         // Where the last substep's end was evaluated as the outputs are made: the states
         // and branches there (written by that evaluation, not moved out of it).
-        let mut end_at = (*x, *sliders);
+        let mut end_at = None;
         let mut groups = DrivenGroups::new(self, cascade, modes, &sum);
         let w = groups.as_ref().map(|groups| groups.start(&end));
         if let (Some(groups), Some(w), true) = (groups.as_mut(), w, deciding) {
@@ -434,8 +464,13 @@ impl SlidingStep<'_> {
         let stiff = h * fastest > STIFF_STEP;
         let (driven, changes) = match (groups.as_mut(), w) {
             (Some(groups), Some(w)) => {
-                let stepped =
-                    self.driven_step(cascade, groups, w, (&end, &mut end_at), (h, largest, stiff))?;
+                let stepped = self.driven_step(
+                    cascade,
+                    groups,
+                    w,
+                    (&end, sliders, &mut end_at),
+                    (h, largest, stiff),
+                )?;
                 // With the changes of mode the driven groups made on the way, and how fast
                 // the groups then slide, as preparing there would find it.
                 if groups.modes != modes {
@@ -447,9 +482,9 @@ impl SlidingStep<'_> {
             // No planar group has a member (no limit in either direction): nothing to step.
             _ => ([0.0; DRIVEN], None),
         };
-        (*x, *sliders) = match changes {
-            Some(_) => end_at,
-            None => self.whole_end(cascade, (&end, &modes, sliders), &driven),
+        (*x, *sliders) = match (changes, end_at) {
+            (Some(_), Some(end_at)) => end_at,
+            _ => self.whole_end(cascade, (&end, &modes, sliders), &driven),
         };
         Some(Part::Taken(
             changes.and_then(|changes| self.shaped_end(&modes, fastest, changes)),
@@ -513,35 +548,13 @@ impl SlidingStep<'_> {
         self.cascade().is_some()
     }
 
-    /// The cascade of this step's slots, if the model's elements form one
-    /// ([`crate::physics::friction::Friction::cascade_driver`]) and the step suits it: no free states, held inputs.
-    /// The driver's branches drive; every other slot is driven.
-    fn cascade(&self) -> Option<Cascade> {
-        let layout = &self.layout;
-        let driver = self.friction.cascade_driver?;
-        if layout.free_count != 0 || self.input_rates != DrivingVector::zeros() {
+    /// The cascade of this step's slots, if they form one ([`Cascade::of`]) and the step
+    /// suits it: held inputs.
+    fn cascade(&self) -> Option<&Cascade> {
+        if self.input_rates != DrivingVector::zeros() {
             return None;
         }
-        let mut cascade = Cascade {
-            drivers: [0; MAX_TOGETHER],
-            driver_count: 0,
-            driven: [0; MAX_TOGETHER],
-            driven_count: 0,
-            driver_state: driver,
-        };
-        for (j, slot) in self.slots().iter().enumerate() {
-            if slot.states[0] == driver {
-                cascade.drivers[cascade.driver_count] = j as u8;
-                cascade.driver_count += 1;
-            } else {
-                cascade.driven[cascade.driven_count] = j as u8;
-                cascade.driven_count += 1;
-            }
-        }
-        // The driven entries within the whole vector's count, which the extrapolation of a
-        // stiff substep compares.
-        (cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
-            .then_some(cascade)
+        self.cascade
     }
 
     /// A driver's group input at deflection `b`: its sticking rate is its element's
@@ -572,10 +585,9 @@ impl SlidingStep<'_> {
         cascade: &Cascade,
         groups: &mut DrivenGroups,
         mut w: Driven,
-        (z, end_at): (&Vector, &mut (StateVector, SliderState)),
+        (z, sliders, end_at): (&Vector, &SliderState, &mut Option<(StateVector, SliderState)>),
         (h, largest, stiff): (f64, f64, bool),
     ) -> Option<(Driven, Option<LimitChanges>)> {
-        let sliders = end_at.1;
         // The explicit substeps stay as short as the whole system's exponential ones, so
         // that their samples of the event values are as close; the implicit ones try the
         // whole step first, as there.
@@ -658,18 +670,19 @@ impl SlidingStep<'_> {
                 // outputs are made, so that they come from this evaluation.
                 let last = t + length >= h;
                 let mut end_changes = None;
-                let mut end_evaluation =
-                    |u: &Driven, (rates, events): (&mut Driven, &mut Events), made: &mut Option<_>| {
-                        if !last {
-                            (*rates, *events) = groups.evaluate(u);
-                            return;
-                        }
-                        *end_at = self.whole_end(cascade, (z, &groups.modes, &sliders), u);
-                        (*rates, *events) = self.shaped_evaluation(&end_at.0, &end_at.1, |slots, changes| {
-                            *made = Some(changes);
-                            groups.laid_out(cascade, slots, u)
-                        });
-                    };
+                let mut end_evaluation = |u: &Driven,
+                                          (rates, events): (&mut Driven, &mut Events),
+                                          made: &mut Option<_>| {
+                    if !last {
+                        (*rates, *events) = groups.evaluate(u);
+                        return;
+                    }
+                    let (x, sliders) = end_at.insert(self.whole_end(cascade, (z, &groups.modes, sliders), u));
+                    (*rates, *events) = self.shaped_evaluation(x, sliders, |slots, changes| {
+                        *made = Some(changes);
+                        groups.laid_out(cascade, slots, u)
+                    });
+                };
                 let mut course = None;
                 if in_one_direction(&inputs[..groups.count()]) {
                     let mut middle_events = events;

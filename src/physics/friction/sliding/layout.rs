@@ -6,6 +6,7 @@
 
 use super::super::group::{GroupInput, GroupLaw, MAX_MEMBERS, Members};
 use super::super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
+use super::cascade::Cascade;
 use super::{Modes, SIZE, Vector};
 use crate::physics::brush::Branch;
 use crate::physics::state_space::{MAX_STATES, StateSpace, StateVector, by_state_count};
@@ -260,6 +261,8 @@ pub struct SlidingSlots {
     pub(super) count: usize,
     /// Whether every slot's group is damped (made with the slots).
     pub(super) all_damped: bool,
+    /// The slots' cascade, where they form one (made with the slots, [`Cascade::of`]).
+    pub(super) cascade: Option<Cascade>,
 }
 
 /// The reciprocals of a step's branch limits `phi_i Fmax`, made as `(1 / phi_i) (1 / Fmax)`:
@@ -379,6 +382,11 @@ impl Friction {
         laid_out.all_damped = laid_out.slots[..laid_out.count]
             .iter()
             .all(|slot| slot.law.damped());
+        laid_out.cascade = Cascade::of(
+            &laid_out.slots[..laid_out.count],
+            &laid_out.layout,
+            self.cascade_driver,
+        );
         self.refresh_sliding_slots(system, limits);
     }
 }

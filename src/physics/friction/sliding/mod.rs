@@ -167,6 +167,8 @@ pub struct SlidingStep<'a> {
     slots: &'a [Slot],
     /// Whether every slot's group is damped.
     all_damped: bool,
+    /// The slots' cascade, where they form one ([`cascade`]).
+    cascade: Option<&'a cascade::Cascade>,
     /// Whether substeps are linearly implicit ([`implicit`]): for a step the explicit
     /// method could not finish. Event location integrates by the same method as the
     /// substeps it searches.
@@ -238,6 +240,7 @@ impl<'a> SlidingStep<'a> {
             layout: &laid_out.layout,
             slots: &laid_out.slots[..laid_out.count],
             all_damped: laid_out.all_damped,
+            cascade: laid_out.cascade.as_ref(),
             stiff: Cell::new(false),
             exponential_declined: Cell::new(false),
             high_order_declined: Cell::new(false),
