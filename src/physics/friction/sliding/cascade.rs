@@ -355,7 +355,9 @@ impl SlidingStep<'_> {
         start: Start,
     ) -> Option<Part> {
         let deciding = start == Start::Undecided;
-        let z = self.layout.pack(x, sliders);
+        // The start, and where the drivers end as the loop below finds them (each writes
+        // only its own entry, after reading it).
+        let mut end = self.layout.pack(x, sliders);
         // Deciding, every slot's mode is decided below (the cascade's slots are all), and
         // a group's branches that have no slot stick, as preparing leaves them.
         let mut modes = if deciding {
@@ -363,10 +365,9 @@ impl SlidingStep<'_> {
         } else {
             sliders.sliding
         };
-        let states = self.layout.model_states(&z);
-        let largest = largest_of(&z);
+        let states = self.layout.model_states(&end);
+        let largest = largest_of(&end);
         let slots = self.slots();
-        let mut end = z;
         // Drivers, in closed form; their weighted sum's terms by mode.
         let mut sum = DriverSum {
             start: states[cascade.driver_state],
@@ -380,7 +381,8 @@ impl SlidingStep<'_> {
         for j in cascade.drivers() {
             let slot = &slots[j];
             let entry = slot.entries[0];
-            let input = self.driver_input(slot, z[entry]);
+            let b0 = end[entry];
+            let input = self.driver_input(slot, b0);
             if deciding {
                 modes[slot.group][slot.branch] = input.outside();
             }
@@ -403,7 +405,7 @@ impl SlidingStep<'_> {
                 Some(q) => q,
             };
             sum.by_mode[mode] += self.layout.weights[slot.branch] * start.rate[0];
-            end[entry] = z[entry] + q * start.rate[0];
+            end[entry] = b0 + q * start.rate[0];
             // At the end its event value, and the trial force, whose side of zero a
             // sliding force has (it is the trial's scaled onto the limit).
             let finish = self.driver_input(slot, end[entry]);
@@ -426,7 +428,7 @@ impl SlidingStep<'_> {
             if same_side && finish_event <= EVENT_TOLERANCE {
                 continue;
             }
-            let at = self.driver_crossing(slot, (z[entry], start.rate[0], mu), &input, &finish, sliding)?;
+            let at = self.driver_crossing(slot, (b0, start.rate[0], mu), &input, &finish, sliding)?;
             // Past the part's end, its end's event value is rounding's.
             if at >= h {
                 return None;
@@ -899,7 +901,8 @@ struct DrivenGroups<'s> {
 }
 
 impl<'s> DrivenGroups<'s> {
-    /// `None` where there are none.
+    /// `None` where there are none. (Inlined: made where it is kept, not copied there.)
+    #[inline(always)]
     fn new(step: &'s SlidingStep, cascade: &Cascade, modes: Modes, sum: &'s DriverSum) -> Option<Self> {
         let all = step.slots();
         let mut groups = DrivenGroups {
