@@ -755,12 +755,15 @@ impl<'a> SlidingStep<'a> {
     }
 }
 
-/// How long the eighth-order pair's first and second substeps of a step could have been,
-/// s: each the length at which the pair's estimate from the same start would have been
-/// its aim for them (3 tolerances); infinite where the step took no such substep.
-/// The next step starts its first two substeps by the pair with them: a combined slide's
-/// error is largest where its force turns, at a step's start, so its first substep is
-/// its shortest, and the second may be longer than the first's error would allow.
+/// How long the first and second substeps of a step by its explicit method could have
+/// been, s; infinite where the step took no such substep. The eighth-order pair's (the
+/// whole-system path): each the length at which the pair's estimate from the same start
+/// would have been its aim for them (3 tolerances). The next step starts its first two
+/// substeps by the pair with them: a combined slide's error is largest where its force
+/// turns, at a step's start, so its first substep is its shortest, and the second may be
+/// longer than the first's error would allow. DDT's cascade carries its first exprb42
+/// substep's the same way (`cascade::carried_first_substep`), and no second. Either
+/// method reads what the other carried as a first try, which its error control corrects.
 pub type HighOrderSubsteps = [f64; 2];
 
 /// No lengths carried: the next step's first two substeps by the pair are as long as
