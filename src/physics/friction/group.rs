@@ -620,6 +620,7 @@ impl<'a> GroupInput<'a> {
     /// chain rule instead of evaluating the whole system once per entry. `rate` is what
     /// that evaluation gave: a sliding spring-damper's force follows from it, with no
     /// second projection onto the ellipse.
+    #[inline]
     pub fn rate_slopes(&self, sliding: bool, rate: &Members) -> RateSlopes {
         // Sticking, the deflections move at their sticking rates.
         let mut slopes = RateSlopes::default();
