@@ -695,6 +695,7 @@ impl<'a> GroupInput<'a> {
     /// Written out over both member slots, so that its loops have a known length: a
     /// missing member's constants, deflection and rate are zero, so its rows and columns
     /// come out zero and its terms add nothing.
+    #[inline]
     fn damped_sliding_slopes(&self, rate: &Members, slopes: &mut RateSlopes) {
         let (stiffness, damping, weight) = (&self.stiffness, &self.damping, &self.weight);
         let (inverse_limit, inverse_damping) = (&self.inverse_limit, &self.inverse_damping);
