@@ -242,13 +242,19 @@ fn newton_start(start: f64, weight: &Members, ratio_squared: &Members, utilisati
 pub const MAX_TOGETHER: usize =
     crate::physics::friction::Group::COUNT * crate::physics::friction::MAX_BRANCHES;
 
-/// [`GroupInput::evaluate`] of each of `inputs` in its mode, the same values: the damped
-/// groups that slide take their projections side by side ([`closest_points_where`]).
-pub fn evaluate_together(inputs: &[GroupInput], sliding: &[bool], outputs: &mut [GroupOutput]) {
-    let count = inputs.len().min(MAX_TOGETHER);
-    let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
-    let mut utilisations = [0.0; MAX_TOGETHER];
-    let mut projected = [false; MAX_TOGETHER];
+/// [`GroupInput::evaluate`] of each of `inputs` (at most `N`) in its mode, the same
+/// values: the damped groups that slide take their projections side by side
+/// ([`closest_points_where`]). (`N` is the most a caller has: its working arrays are made
+/// for every call.)
+pub fn evaluate_together<const N: usize>(
+    inputs: &[GroupInput],
+    sliding: &[bool],
+    outputs: &mut [GroupOutput],
+) {
+    let count = inputs.len().min(N);
+    let mut trials = [[0.0; MAX_MEMBERS]; N];
+    let mut utilisations = [0.0; N];
+    let mut projected = [false; N];
     for j in 0..count {
         let input = &inputs[j];
         if !(input.damped() && sliding[j]) {
@@ -291,19 +297,19 @@ pub fn closest_points_where(
 
 /// The multipliers of [`GroupInput::closest_point`] of the groups `j` with `which[j]`, by
 /// rounds of Newton steps over the searches still going on (zero for the others).
-fn multipliers_together(
+fn multipliers_together<const N: usize>(
     inputs: &[GroupInput],
-    trials: &[Members; MAX_TOGETHER],
-    utilisations: &[f64; MAX_TOGETHER],
-    which: &[bool; MAX_TOGETHER],
-) -> [f64; MAX_TOGETHER] {
-    let mut lambdas = [0.0; MAX_TOGETHER];
+    trials: &[Members; N],
+    utilisations: &[f64; N],
+    which: &[bool; N],
+) -> [f64; N] {
+    let mut lambdas = [0.0; N];
     // The searches, and which of them go on (their indices, the first `pending`): a
     // round of Newton steps visits only those.
-    let mut searches = [Search::NONE; MAX_TOGETHER];
-    let mut going_on = [0; MAX_TOGETHER];
+    let mut searches = [Search::NONE; N];
+    let mut going_on = [0; N];
     let mut pending = 0;
-    for j in 0..inputs.len().min(MAX_TOGETHER) {
+    for j in 0..inputs.len().min(N) {
         if !which[j] {
             continue;
         }
@@ -1030,7 +1036,7 @@ mod tests {
         for sliding in [true, false] {
             let modes = [sliding; MAX_TOGETHER];
             let mut outputs = [GroupOutput::default(); MAX_TOGETHER];
-            evaluate_together(&inputs, &modes, &mut outputs);
+            evaluate_together::<MAX_TOGETHER>(&inputs, &modes, &mut outputs);
             for (input, together) in inputs.iter().zip(outputs) {
                 assert_eq!(together, input.evaluate(sliding));
                 // The event value alone, the same bits (with no projection).

@@ -14,7 +14,8 @@
 //!   most, where the whole system has twelve) are stepped together by exponential
 //!   methods ([`super::exponential`]), whose linear part is a few small blocks: each
 //!   group's own two by two, its column for each `q`, and each `q`'s `mu`. The `q`s are
-//!   linear, so a substep carries them exactly. Both methods evaluate the rates at the
+//!   linear, so a substep carries them exactly, as far as they move the groups
+//!   ([`DrivenLinearPart::size`]). Both methods evaluate the rates at the
 //!   substep's end, and that evaluation serves twice: as the next substep's start, and
 //!   at the step's end as the outputs' shaping, made from the end's states and branches
 //!   as the outputs are made on demand ([`super::SlidingStep::shaped_evaluation`]), so
@@ -59,8 +60,8 @@
 use super::course::{Course, crossing_search};
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{
-    EXPRB42_MARGIN, LinearPart, euler_within, exponential_euler, exprb42, negligible_term, resize,
-    resize_euler,
+    EXPRB42_MARGIN, LinearPart, euler_within, exponential_euler, exprb42, largest_size, negligible_term,
+    resize, resize_euler,
 };
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
@@ -73,7 +74,7 @@ use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::group::{
     GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
 };
-use crate::physics::state_space::{DrivingVector, StateVector};
+use crate::physics::state_space::{DrivingVector, MAX_STATES, StateVector};
 
 /// The driven groups' vector: each group's members' deflections (one group a branch),
 /// then `q_stick` and `q_slide`, which every driven group reads.
@@ -91,22 +92,44 @@ fn entry(n: usize, m: usize) -> usize {
 /// the step.
 const MAX_SUBSTEPS: usize = 8;
 
-/// The share of exprb42's margin ([`EXPRB42_MARGIN`]) that the first substep's length
-/// carried to the next step aims at ([`carried_first_substep`]).
-const CARRIED_AIM: f64 = 0.8;
+/// The share of exprb42's margin ([`EXPRB42_MARGIN`]) that its substeps' lengths aim at
+/// ([`aimed_length`]).
+const AIM: f64 = 0.8;
+
+/// The length of a substep at which exprb42's estimate would be [`AIM`] of its margin,
+/// from a substep of `length` whose estimate was `error` (it grows as the length's fourth
+/// power). The estimate is of a third-order solution, and exprb42's end was within a
+/// tenth of it over DDT's slides, so a substep that meets its aim is well inside the
+/// tolerance; aimed higher, a force that turns after a group starts sliding needs fewer
+/// substeps for the same step (over the slide yardstick's combined case, all exprb42
+/// attempts fell from 4941 to 4711 with the step in equal pieces, against aiming at a
+/// fifth of the margin as the whole-system path does; none more were thrown away).
+fn aimed_length(length: f64, error: f64) -> f64 {
+    let share = (error / EXPRB42_MARGIN).max(1e-10);
+    length * (AIM / share).sqrt().sqrt()
+}
+
+/// The next substep's length where `rest` of the step remains and a substep of `allowed`
+/// would meet its aim: the rest in equal pieces no longer than that, so that no short
+/// piece is left at the end.
+fn in_equal_pieces(rest: f64, allowed: f64) -> f64 {
+    if allowed >= rest {
+        rest
+    } else {
+        rest / (rest / allowed).ceil()
+    }
+}
 
 /// The length exprb42's first substep of a step could have had, carried to the next step
-/// ([`HighOrderSubsteps`]; its second is not carried): the length of `length`'s
-/// substep at which its estimate `error`, which grows as the length's fourth power,
-/// would have been [`CARRIED_AIM`] of its margin. A force that turns after a group starts
-/// sliding takes tens of steps to settle, its estimate at the step's start falling by a
-/// few percent a step; each of those steps would otherwise try the whole step, come
-/// back too long and take shorter substeps than it needs. Over 4000 steps of the slide
-/// yardstick's combined case, the first attempts that came back too long went from 500
-/// to 12, and all exprb42 attempts from 5312 to 4941 (4812 to 4925 of them taken).
+/// ([`HighOrderSubsteps`]; its second is not carried): [`aimed_length`]. A force that
+/// turns after a group starts sliding takes tens of steps to settle, its estimate at the
+/// step's start falling by a few percent a step; each of those steps would otherwise try
+/// the whole step, come back too long and take shorter substeps than it needs. Over 4000
+/// steps of the slide yardstick's combined case, the first attempts that came back too
+/// long went from 500 to 12, and all exprb42 attempts from 5312 to 4941 (4812 to 4925 of
+/// them taken).
 fn carried_first_substep(length: f64, error: f64) -> HighOrderSubsteps {
-    let share = (error / EXPRB42_MARGIN).max(1e-10);
-    [length * (CARRIED_AIM / share).sqrt().sqrt(), f64::INFINITY]
+    [aimed_length(length, error), f64::INFINITY]
 }
 
 /// Changes of mode of the driven groups within one step before the whole-system path
@@ -394,13 +417,16 @@ impl SlidingStep<'_> {
         };
         // By mode, `q(h)`: the same for every branch in that mode.
         let mut q_end = [None; 2];
+        // The inputs' part of each model state's rate, `(B u)_k`: every driver's branch reads
+        // its element's, and each driven group's members read theirs.
+        let drives = self.input_rates();
         // The first driver to change mode within the part, if one does.
         let mut first_switch: Option<DriverSwitch> = None;
         for j in cascade.drivers() {
             let slot = &slots[j];
             let entry = slot.entries[0];
             let b0 = end[entry];
-            let input = self.driver_input(slot, b0);
+            let input = driver_input(slot, b0, drives[cascade.driver_state]);
             if deciding {
                 modes[slot.group][slot.branch] = input.outside();
             }
@@ -426,7 +452,7 @@ impl SlidingStep<'_> {
             end[entry] = b0 + q * start.rate[0];
             // At the end its event value, and the trial force, whose side of zero a
             // sliding force has (it is the trial's scaled onto the limit).
-            let finish = self.driver_input(slot, end[entry]);
+            let finish = driver_input(slot, end[entry], drives[cascade.driver_state]);
             let finish_event = finish.event(sliding);
             let same_side = !sliding || start.force[0] * finish.sticking_force()[0] > 0.0;
             if !slot.law.damped() {
@@ -463,8 +489,8 @@ impl SlidingStep<'_> {
         sum.end = q_end.map(|q| q.unwrap_or(h));
         // Where the last substep's end was evaluated as the outputs are made: the states
         // and branches there (written by that evaluation, not moved out of it).
-        let mut end_at = None;
-        let mut groups = DrivenGroups::new(self, cascade, modes, &sum);
+        let mut end_at = (StateVector::zeros(), SliderState::AT_REST);
+        let mut groups = DrivenGroups::new(self, cascade, (modes, &drives), &sum);
         let w = groups.as_ref().map(|groups| groups.start(&end));
         if let (Some(groups), Some(w), true) = (groups.as_mut(), w, deciding) {
             groups.decide(&w);
@@ -502,10 +528,13 @@ impl SlidingStep<'_> {
             // No planar group has a member (no limit in either direction): nothing to step.
             _ => ([0.0; DRIVEN], None),
         };
-        (*x, *sliders) = match (changes, end_at) {
-            (Some(_), Some(end_at)) => end_at,
-            _ => self.whole_end(cascade, (&end, &modes, sliders), &driven),
-        };
+        match changes {
+            Some(_) => (*x, *sliders) = end_at,
+            None => {
+                let start = *sliders;
+                self.whole_end(cascade, (&end, &modes, &start), &driven, (x, sliders));
+            }
+        }
         Some(Part::Taken(
             changes.and_then(|changes| self.shaped_end(&modes, fastest, changes)),
         ))
@@ -541,13 +570,16 @@ impl SlidingStep<'_> {
     }
 
     /// The states and branches at the end `driven` of the driven groups, with the
-    /// drivers' ends in `end` and the modes `modes` (the offsets of `sliders` replaced).
+    /// drivers' ends in `end` and the modes `modes` (the offsets of `sliders` replaced),
+    /// written to `x` and `end_sliders` (where they are kept: made and then moved there,
+    /// they were copied by a call).
     fn whole_end(
         &self,
         cascade: &Cascade,
         (end, modes, sliders): (&Vector, &Modes, &SliderState),
         driven: &Driven,
-    ) -> (StateVector, SliderState) {
+        (x, end_sliders): (&mut StateVector, &mut SliderState),
+    ) {
         let mut end = *end;
         for (n, j) in cascade.driven().enumerate() {
             let slot = &self.slots()[j];
@@ -556,10 +588,9 @@ impl SlidingStep<'_> {
             }
         }
         self.hold_on_limits(&mut end, modes);
-        let mut end_sliders = *sliders;
-        let end_x = self.layout.unpack(&end, &mut end_sliders);
+        *end_sliders = *sliders;
+        *x = self.layout.unpack(&end, end_sliders);
         end_sliders.sliding = *modes;
-        (end_x, end_sliders)
     }
 
     /// Whether the model's elements form a cascade and the step suits it
@@ -577,16 +608,14 @@ impl SlidingStep<'_> {
         self.cascade
     }
 
-    /// A driver's group input at deflection `b`: its sticking rate is its element's
-    /// equation with `b` in place of the state, `A_kk b + c`.
-    fn driver_input<'s>(&self, slot: &'s Slot, b: f64) -> GroupInput<'s> {
-        // Each pair made whole (see [`DrivenGroups::inputs`]).
-        let rate = slot.relaxation[0] * b + self.system.input_rate(slot.states[0], &self.inputs);
-        GroupInput {
-            law: &slot.law,
-            deflection: [b, 0.0],
-            sticking_rate: [rate, 0.0],
+    /// The inputs' part of each model state's rate, `(B u)_k` (zero past the model's
+    /// states).
+    fn input_rates(&self) -> [f64; MAX_STATES] {
+        let mut rates = [0.0; MAX_STATES];
+        for (k, rate) in rates.iter_mut().enumerate().take(self.system.states) {
+            *rate = self.system.input_rate(k, &self.inputs);
         }
+        rates
     }
 
     /// The driven groups over the step, side by side, in substeps of one length: by
@@ -605,7 +634,7 @@ impl SlidingStep<'_> {
         cascade: &Cascade,
         groups: &mut DrivenGroups,
         mut w: Driven,
-        (z, sliders, end_at): (&Vector, &SliderState, &mut Option<(StateVector, SliderState)>),
+        (z, sliders, end_at): (&Vector, &SliderState, &mut (StateVector, SliderState)),
         (h, largest, stiff): (f64, f64, bool),
     ) -> Option<(Driven, Option<LimitChanges>)> {
         // The explicit substeps stay as short as the whole system's exponential ones, so
@@ -621,6 +650,12 @@ impl SlidingStep<'_> {
             h / (h / carried).ceil()
         };
         let (mut t, mut length, mut taken) = (0.0, first.min(longest), 0);
+        // Exponential Euler is tried where a slide is in one direction, unless the last
+        // step's first exprb42 substep could not have been the whole step: the force turns
+        // fast, and Euler, an order short of exprb42, is thrown away (as the slip reverses,
+        // its estimates were hundreds of times its margin). Nor again within the step once
+        // it has been thrown away.
+        let mut euler_may_do = carried >= h;
         // Over the groups' deflections: the `q`s are exact.
         let deflections = entry(groups.count(), 0);
         let negligible = negligible_term(self.scale, largest);
@@ -698,21 +733,22 @@ impl SlidingStep<'_> {
                 // outputs are made, so that they come from this evaluation.
                 let last = t + length >= h;
                 let mut end_changes = None;
-                let mut end_evaluation = |u: &Driven,
-                                          (rates, events): (&mut Driven, &mut Events),
-                                          made: &mut Option<_>| {
-                    if !last {
-                        (*rates, *events) = groups.evaluate(u);
-                        return;
-                    }
-                    let (x, sliders) = end_at.insert(self.whole_end(cascade, (z, &groups.modes, sliders), u));
-                    (*rates, *events) = self.shaped_evaluation(x, sliders, |slots, changes| {
-                        *made = Some(changes);
-                        groups.laid_out(cascade, slots, u)
-                    });
-                };
+                let mut end_evaluation =
+                    |u: &Driven, (rates, events): (&mut Driven, &mut Events), made: &mut Option<_>| {
+                        if !last {
+                            (*rates, *events) = groups.evaluate(u);
+                            return;
+                        }
+                        let (x, end_sliders) = &mut *end_at;
+                        self.whole_end(cascade, (z, &groups.modes, sliders), u, (x, end_sliders));
+                        let (x, sliders) = &*end_at;
+                        (*rates, *events) = self.shaped_evaluation(x, sliders, |slots, changes| {
+                            *made = Some(changes);
+                            groups.laid_out(cascade, slots, u)
+                        });
+                    };
                 let mut course = None;
-                if in_one_direction(&inputs[..groups.count()]) {
+                if euler_may_do && in_one_direction(&inputs[..groups.count()]) {
                     let mut middle_events = events;
                     let middle = |u: &Driven| {
                         middle_events = groups.events(u);
@@ -749,6 +785,7 @@ impl SlidingStep<'_> {
                         length *= factor;
                         continue;
                     }
+                    euler_may_do = growth.is_some();
                     course = Some(samples);
                 }
                 // Where Euler is not within the tolerance, or a group crosses its event
@@ -784,12 +821,17 @@ impl SlidingStep<'_> {
                                 if t == 0.0 {
                                     self.high_order_found.set(carried_first_substep(length, error));
                                 }
-                                let (accepted, factor) = resize(error, EXPRB42_MARGIN);
+                                // Within the margin, taken; the next at its aim, at most
+                                // four times longer; not taken, tried again shorter.
+                                let accepted = error <= EXPRB42_MARGIN;
+                                let longer = if accepted { 4.0 } else { 0.9 };
+                                let allowed =
+                                    aimed_length(length, error).max(0.2 * length).min(longer * length);
                                 if accepted {
                                     (w, t, taken) = (end, t + length, taken + 1);
                                     (kept, changes) = (true, end_changes);
                                 }
-                                length *= factor;
+                                length = in_equal_pieces(h - t, allowed.min(longest));
                                 continue;
                             }
                         }
@@ -924,6 +966,18 @@ enum Implicit {
     NearEvent,
 }
 
+/// A driver's group input at deflection `b`, its element's state's rate from the inputs
+/// `drive`: its sticking rate is its element's equation with `b` in place of the state,
+/// `A_kk b + c`.
+fn driver_input(slot: &Slot, b: f64, drive: f64) -> GroupInput<'_> {
+    // Each pair made whole (see [`DrivenGroups::inputs`]).
+    GroupInput {
+        law: &slot.law,
+        deflection: [b, 0.0],
+        sticking_rate: [slot.relaxation[0] * b + drive, 0.0],
+    }
+}
+
 /// The driven groups of one step: their slots, each member's inputs' part of its
 /// sticking rate and coupling to the drivers' state, and the drivers' sum.
 struct DrivenGroups<'s> {
@@ -938,7 +992,12 @@ struct DrivenGroups<'s> {
 impl<'s> DrivenGroups<'s> {
     /// `None` where there are none. (Inlined: made where it is kept, not copied there.)
     #[inline(always)]
-    fn new(step: &'s SlidingStep, cascade: &Cascade, modes: Modes, sum: &'s DriverSum) -> Option<Self> {
+    fn new(
+        step: &'s SlidingStep,
+        cascade: &Cascade,
+        (modes, drives): (Modes, &[f64; MAX_STATES]),
+        sum: &'s DriverSum,
+    ) -> Option<Self> {
         let all = step.slots();
         let mut groups = DrivenGroups {
             slots: [all.get(cascade.driven().next()?)?; MAX_BRANCHES],
@@ -953,7 +1012,7 @@ impl<'s> DrivenGroups<'s> {
             groups.slots[n] = slot;
             for m in slot.law.members() {
                 let k = slot.states[m];
-                groups.drive[n][m] = step.system.input_rate(k, &step.inputs);
+                groups.drive[n][m] = drives[k];
                 groups.coupling[n][m] = step.system.a[(k, cascade.driver_state)];
             }
         }
@@ -1045,7 +1104,7 @@ impl<'s> DrivenGroups<'s> {
     ) -> (Driven, Events) {
         let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
         let count = self.count;
-        evaluate_together(&inputs[..count], &sliding[..count], &mut outputs[..count]);
+        evaluate_together::<MAX_BRANCHES>(&inputs[..count], &sliding[..count], &mut outputs[..count]);
         self.laid_out_from(w, |n| outputs[n])
     }
 
@@ -1194,6 +1253,7 @@ impl<'s> DrivenGroups<'s> {
             members: [[[0.0; MAX_MEMBERS]; MAX_MEMBERS]; MAX_BRANCHES],
             by_q: [[[0.0; MAX_MEMBERS]; 2]; MAX_BRANCHES],
             q_rates: self.sum.rate.map(|mu| length * mu),
+            q_weights: [0.0; 2],
             count: self.count,
             length,
             negligible,
@@ -1204,7 +1264,9 @@ impl<'s> DrivenGroups<'s> {
                     linear.members[n][m][k] = length * slopes[n].by_member[k][m];
                 }
                 for mode in 0..2 {
-                    linear.by_q[n][mode][k] = length * slopes[n].by_driver[k] * self.sum.by_mode[mode];
+                    let by_q = length * slopes[n].by_driver[k] * self.sum.by_mode[mode];
+                    linear.by_q[n][mode][k] = by_q;
+                    linear.q_weights[mode] = linear.q_weights[mode].max(by_q.abs());
                 }
             }
         }
@@ -1230,6 +1292,10 @@ struct DrivenLinearPart {
     by_q: [[Members; 2]; MAX_BRANCHES],
     /// `H mu` by `q`.
     q_rates: [f64; 2],
+    /// By `q`, the most a unit of it moves a group's rates over the substep, `max |H d
+    /// rate_k / d q|`: what a `q` entry of a series' term counts as
+    /// ([`DrivenLinearPart::size`]).
+    q_weights: [f64; 2],
     count: usize,
     length: f64,
     negligible: f64,
@@ -1261,6 +1327,21 @@ impl LinearPart<DRIVEN> for DrivenLinearPart {
 
     fn negligible(&self) -> f64 {
         self.negligible
+    }
+
+    /// A term's `q` entries count by how much they move the groups' deflections
+    /// ([`DrivenLinearPart::q_weights`]), not as deflections: a `q` is a time, and
+    /// `dq/dt = 1 + mu q` is near one where the deflections move by millimetres a second,
+    /// so counted as a deflection its terms would go on long after they no longer move
+    /// anything (the series of the start's rates took 9.3 terms on average in the slide
+    /// yardstick's combined case, and take 7). What is left of them moves the groups as
+    /// little as the terms left of the deflections do.
+    #[inline(always)]
+    fn size(&self, v: &Driven) -> f64 {
+        let deflections: &[f64; DRIVEN - 2] = v[..DRIVEN - 2].try_into().expect("the groups' entries");
+        let deflections = largest_size(deflections);
+        let q = [0, 1].map(|mode| self.q_weights[mode] * v[Q[mode]].abs());
+        deflections.max(q[0]).max(q[1])
     }
 }
 

@@ -173,6 +173,13 @@ pub(super) trait LinearPart<const E: usize> {
     fn length(&self) -> f64;
     fn negligible(&self) -> f64;
 
+    /// How much a term `v` of a series counts, as a rate of the states: its largest
+    /// entry's size (a NaN ignored) where every entry is a state's.
+    #[inline(always)]
+    fn size(&self, v: &[f64; E]) -> f64 {
+        largest_size(v)
+    }
+
     /// `sum_j weights(j)[k] X^j v` for each `k` (`weights(j)[0]` the largest); `None` if the terms do not fall below
     /// [`LinearPart::negligible`] within [`MAX_TERMS`]. A term ends the series where
     /// its contribution is negligible and the next one is at most half of it (the powers
@@ -188,7 +195,7 @@ pub(super) trait LinearPart<const E: usize> {
         let mut previous_largest = f64::INFINITY;
         for j in 0..MAX_TERMS {
             let w = weights(j);
-            let largest = largest_size(&power);
+            let largest = self.size(&power);
             for k in 0..K {
                 for c in 0..E {
                     sums[k][c] += w[k] * power[c];
@@ -237,7 +244,7 @@ impl<const E: usize> LinearPart<E> for Linearisation<E> {
 /// The largest size of the entries of `v` (`E` even), a NaN ignored as by `f64::max`: in
 /// two lanes of plain comparisons, which the series' every term waits on.
 #[inline]
-fn largest_size<const E: usize>(v: &[f64; E]) -> f64 {
+pub(super) fn largest_size<const E: usize>(v: &[f64; E]) -> f64 {
     const { assert!(E.is_multiple_of(2)) };
     let mut lanes = [0.0_f64; 2];
     for pair in v.chunks_exact(2) {
@@ -500,6 +507,7 @@ pub(super) fn exprb43<const E: usize>(
 /// where a series would be long, a value is not finite, or `stage_rates` gives up.
 /// `stage_rates(k, u)` gives the rates at `U2` (`k = 1`, three quarters of the substep
 /// on) and at the end (`k = 2`), which the caller keeps as the next substep's start.
+#[inline(always)]
 pub(super) fn exprb42<const E: usize>(
     linear: &impl LinearPart<E>,
     z: &[f64; E],

@@ -395,7 +395,7 @@ impl<'a> SlidingStep<'a> {
                 sliding[j] = modes[slot.group][slot.branch];
             }
             let mut outputs = [GroupOutput::default(); MAX_TOGETHER];
-            evaluate_together(&inputs[..slots.len()], &sliding, &mut outputs);
+            evaluate_together::<MAX_TOGETHER>(&inputs[..slots.len()], &sliding, &mut outputs);
             for (j, slot) in slots.iter().enumerate() {
                 write(slot, &inputs[j], sliding[j], &outputs[j]);
             }
