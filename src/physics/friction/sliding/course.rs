@@ -196,9 +196,13 @@ fn slope_roots(coefficients: &[f64; 5]) -> [Option<f64>; 3] {
     } else {
         let discriminant = b * b - 4.0 * a * q;
         if discriminant >= 0.0 {
-            let root = discriminant.sqrt();
-            add((-b - root) / (2.0 * a));
-            add((-b + root) / (2.0 * a));
+            // The root of larger size without cancellation, the other from their product
+            // (`q / a`): near `a = 0` the textbook form loses one of them.
+            let large = -0.5 * (b + discriminant.sqrt().copysign(b));
+            add(large / a);
+            if large != 0.0 {
+                add(q / large);
+            }
         }
     }
     ends[count] = 1.0;
