@@ -850,8 +850,14 @@ impl SlidingStep<'_> {
                 let slot = groups.slots[n];
                 let (g, i) = (slot.group, slot.branch);
                 if events[g][i] >= 0.5 * EVENT_TOLERANCE {
-                    // At its event already, moving past it: it changes mode here.
-                    (crossing, None)
+                    // At its event already (within the tolerance): moving past it, it
+                    // changes mode here; moving back, it would cross later from past where
+                    // the search starts, and the whole-system path takes the step.
+                    if groups.event_rates(&w, &rates)[n] > 0.0 {
+                        (crossing, None)
+                    } else {
+                        return None;
+                    }
                 } else {
                     // The crossing searched for on exprb42's substeps from the start: where
                     // the event value is within the tolerance past the event.
