@@ -61,7 +61,7 @@ use super::course::{Course, crossing_search};
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{
     EXPRB42_MARGIN, LinearPart, euler_within, exponential_euler, exprb42, largest_size, negligible_term,
-    resize, resize_euler,
+    resize, resize_euler, resized,
 };
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
@@ -93,20 +93,19 @@ fn entry(n: usize, m: usize) -> usize {
 const MAX_SUBSTEPS: usize = 8;
 
 /// The share of exprb42's margin ([`EXPRB42_MARGIN`]) that its substeps' lengths aim at
-/// ([`aimed_length`]).
+/// ([`aimed_factor`]).
 const AIM: f64 = 0.8;
 
-/// The length of a substep at which exprb42's estimate would be [`AIM`] of its margin,
-/// from a substep of `length` whose estimate was `error` (it grows as the length's fourth
-/// power). The estimate is of a third-order solution, and exprb42's end was within a
+/// How much longer than a substep whose estimate was `error` one would be whose estimate
+/// would be [`AIM`] of exprb42's margin (it grows as the length's fourth power). The estimate is of a third-order solution, and exprb42's end was within a
 /// tenth of it over DDT's slides, so a substep that meets its aim is well inside the
 /// tolerance; aimed higher, a force that turns after a group starts sliding needs fewer
 /// substeps for the same step (over the slide yardstick's combined case, all exprb42
 /// attempts fell from 4941 to 4711 with the step in equal pieces, against aiming at a
 /// fifth of the margin as the whole-system path does; none more were thrown away).
-fn aimed_length(length: f64, error: f64) -> f64 {
+fn aimed_factor(error: f64) -> f64 {
     let share = (error / EXPRB42_MARGIN).max(1e-10);
-    length * (AIM / share).sqrt().sqrt()
+    (AIM / share).sqrt().sqrt()
 }
 
 /// The next substep's length where `rest` of the step remains and a substep of `allowed`
@@ -121,7 +120,7 @@ fn in_equal_pieces(rest: f64, allowed: f64) -> f64 {
 }
 
 /// The length exprb42's first substep of a step could have had, carried to the next step
-/// ([`HighOrderSubsteps`]; its second is not carried): [`aimed_length`]. A force that
+/// ([`HighOrderSubsteps`]; its second is not carried): at [`aimed_factor`]. A force that
 /// turns after a group starts sliding takes tens of steps to settle, its estimate at the
 /// step's start falling by a few percent a step; each of those steps would otherwise try
 /// the whole step, come back too long and take shorter substeps than it needs. Over 4000
@@ -129,7 +128,7 @@ fn in_equal_pieces(rest: f64, allowed: f64) -> f64 {
 /// long went from 500 to 12, and all exprb42 attempts from 5312 to 4941 (4812 to 4925 of
 /// them taken).
 fn carried_first_substep(length: f64, error: f64) -> HighOrderSubsteps {
-    [aimed_length(length, error), f64::INFINITY]
+    [length * aimed_factor(error), f64::INFINITY]
 }
 
 /// Changes of mode of the driven groups within one step before the whole-system path
@@ -478,7 +477,8 @@ impl SlidingStep<'_> {
             if same_side && finish_event <= EVENT_TOLERANCE {
                 continue;
             }
-            let at = self.driver_crossing(slot, (b0, start.rate[0], mu), &input, &finish, sliding)?;
+            let drive = drives[cascade.driver_state];
+            let at = driver_crossing(slot, (b0, start.rate[0], mu, drive), &input, &finish, sliding)?;
             // Past the part's end, its end's event value is rounding's.
             if at >= h {
                 return None;
@@ -544,35 +544,6 @@ impl SlidingStep<'_> {
         Some(Part::Taken(
             changes.and_then(|changes| self.shaped_end(&modes, fastest, changes)),
         ))
-    }
-
-    /// When a spring-damper driver in mode `sliding` from deflection `b0` at rate `rate`
-    /// (its mode's rate `mu`) reaches its limit: where its trial force, affine in the
-    /// deflection `T = (K + Dw A_kk) b + Dw c`, is the limit on the side it leaves from
-    /// (sliding) or moves to (sticking), and `q(t) = (b - b0) / rate` is solved for `t`.
-    /// `None` where that is not a time within reach.
-    fn driver_crossing(
-        &self,
-        slot: &Slot,
-        (b0, rate, mu): (f64, f64, f64),
-        start: &GroupInput,
-        finish: &GroupInput,
-        sliding: bool,
-    ) -> Option<f64> {
-        let law = &slot.law;
-        let (stiffness, damping) = (law.stiffness[0], law.damping[0]);
-        let side = if sliding {
-            start.sticking_force()[0]
-        } else {
-            finish.sticking_force()[0]
-        };
-        let target = law.limit[0].copysign(side);
-        let slope = stiffness + damping * slot.relaxation[0];
-        let offset = damping * self.system.input_rate(slot.states[0], &self.inputs);
-        let q = ((target - offset) / slope - b0) / rate;
-        let x = mu * q;
-        let at = if x == 0.0 { q } else { x.ln_1p() / mu };
-        (at.is_finite() && at > 0.0).then_some(at)
     }
 
     /// The states and branches at the end `driven` of the driven groups, with the
@@ -652,11 +623,10 @@ impl SlidingStep<'_> {
         let carried = self.high_order_carried[0];
         // (Where it would take more pieces than a step may, it came from a far shorter
         // step: it tells this one nothing, and the whole step is tried.)
-        let pieces = (h / carried).ceil();
-        let first = if stiff || carried >= h || pieces > MAX_SUBSTEPS as f64 {
+        let first = if stiff || (h / carried).ceil() > MAX_SUBSTEPS as f64 {
             h
         } else {
-            h / pieces
+            in_equal_pieces(h, carried)
         };
         let (mut t, mut length, mut taken) = (0.0, first.min(longest), 0);
         // Exponential Euler is tried where a slide is in one direction, unless the last
@@ -830,12 +800,10 @@ impl SlidingStep<'_> {
                                 if t == 0.0 {
                                     self.high_order_found.set(carried_first_substep(length, error));
                                 }
-                                // Within the margin, taken; the next at its aim, at most
-                                // four times longer; not taken, tried again shorter.
-                                let accepted = error <= EXPRB42_MARGIN;
-                                let longer = if accepted { 4.0 } else { 0.9 };
-                                let allowed =
-                                    aimed_length(length, error).max(0.2 * length).min(longer * length);
+                                // Within the margin, taken; the next at its aim, in the
+                                // bounds of any resizing.
+                                let (accepted, factor) = resized(error / EXPRB42_MARGIN, aimed_factor(error));
+                                let allowed = length * factor;
                                 if accepted {
                                     (w, t, taken) = (end, t + length, taken + 1);
                                     (kept, changes) = (true, end_changes);
@@ -979,6 +947,35 @@ enum Implicit {
     Shorter,
     /// A group may touch its limit inside: the whole-system path takes the step.
     NearEvent,
+}
+
+/// When a spring-damper driver in mode `sliding` from deflection `b0` at rate `rate`
+/// (its mode's rate `mu`) reaches its limit: where its trial force, affine in the
+/// deflection `T = (K + Dw A_kk) b + Dw c` (`c` its element's state's rate from the
+/// inputs, `drive`), is the limit on the side it leaves from
+/// (sliding) or moves to (sticking), and `q(t) = (b - b0) / rate` is solved for `t`.
+/// `None` where that is not a time within reach.
+fn driver_crossing(
+    slot: &Slot,
+    (b0, rate, mu, drive): (f64, f64, f64, f64),
+    start: &GroupInput,
+    finish: &GroupInput,
+    sliding: bool,
+) -> Option<f64> {
+    let law = &slot.law;
+    let (stiffness, damping) = (law.stiffness[0], law.damping[0]);
+    let side = if sliding {
+        start.sticking_force()[0]
+    } else {
+        finish.sticking_force()[0]
+    };
+    let target = law.limit[0].copysign(side);
+    let slope = stiffness + damping * slot.relaxation[0];
+    let offset = damping * drive;
+    let q = ((target - offset) / slope - b0) / rate;
+    let x = mu * q;
+    let at = if x == 0.0 { q } else { x.ln_1p() / mu };
+    (at.is_finite() && at > 0.0).then_some(at)
 }
 
 /// A driver's group input at deflection `b`, its element's state's rate from the inputs

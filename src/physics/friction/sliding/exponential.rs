@@ -364,7 +364,7 @@ pub(super) fn euler_within(error_ratio: f64) -> bool {
 /// Whether an error of `error` allowances is taken, and the growth `factor` clamped: at
 /// most four times longer, and where not taken at least a fifth as long and a tenth
 /// shorter.
-fn resized(error: f64, factor: f64) -> (bool, f64) {
+pub(super) fn resized(error: f64, factor: f64) -> (bool, f64) {
     if error <= 1.0 {
         (true, factor.clamp(0.2, 4.0))
     } else {
