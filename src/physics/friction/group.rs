@@ -251,6 +251,7 @@ pub fn evaluate_together<const N: usize>(
     sliding: &[bool],
     outputs: &mut [GroupOutput],
 ) {
+    debug_assert!(inputs.len() <= N, "{} groups for arrays of {N}", inputs.len());
     let count = inputs.len().min(N);
     let mut trials = [[0.0; MAX_MEMBERS]; N];
     let mut utilisations = [0.0; N];
