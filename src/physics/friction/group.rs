@@ -212,9 +212,12 @@ const MINOR_SHARE: f64 = 1e-3;
 /// multiplier of the largest weight, below the root). Where one member holds nearly all
 /// of the utilisation and the largest weight (a slide in about one direction), a step of
 /// the fixed point `lambda = (sqrt(r_M / (1 - r_m / p_m^2)) - 1) / a_M` (`M` that member,
-/// `m` the other, `p_m = 1 + lambda a_m`): it contracts by about the lesser share times
-/// `a_m / a_M`, so one step leaves an error of about the square of that share, and the
-/// first Newton step settles. Otherwise `start`.
+/// `m` the other, `p_m = 1 + lambda a_m`): it contracts by about the lesser member's
+/// share of the force on the ellipse times `a_m / a_M`, so one step leaves an error of
+/// about the square of that share, and the first Newton step settles. (Near the ellipse
+/// that share is the trial's, which the guard reads; far outside it with far-apart
+/// weights, the lesser member keeps more of its force, the start is looser, and Newton
+/// takes a few steps more.) Otherwise `start`.
 #[inline]
 fn newton_start(start: f64, weight: &Members, ratio_squared: &Members, utilisation: f64) -> f64 {
     let (major, minor) = if ratio_squared[0] >= ratio_squared[1] {
@@ -1088,6 +1091,106 @@ mod tests {
                         (a - m).abs() <= 1e-13 * input.limit[k],
                         "{damping_ratio} {b:?}: {a} against {m}"
                     );
+                }
+            }
+        }
+    }
+
+    /// [`newton_start`] where one member holds nearly all of the utilisation (its lesser
+    /// share `s` of the trial's, 1e-3 down to 1e-7: [`MINOR_SHARE`] and below) and the
+    /// larger weight (1 to 1e4 times the other's), against the true multiplier (the root
+    /// of `S(lambda) = 1`, by bisection to rounding): the fixed-point step lands within the
+    /// square of the lesser member's share of the force on the ellipse, relative (where
+    /// that share is at most 1e-2), and within `2 s^2` where the utilisation is at most 4
+    /// (there the two shares are close), so the first Newton step settles; it is never
+    /// below `start`. Where the guard fails (the lesser share ten times [`MINOR_SHARE`],
+    /// or the larger weight on the member with the lesser share) it is `start`, bit for
+    /// bit. (Far outside the ellipse with far-apart weights the share on the ellipse is
+    /// far above the trial's, up to nearly all of it, and the start no closer.)
+    #[test]
+    fn the_newton_start_is_within_the_square_of_the_lesser_share() {
+        // `S(lambda) = sum r_k / (1 + lambda a_k)^2`, falling in lambda.
+        let norm = |weight: &Members, ratio_squared: &Members, lambda: f64| {
+            (0..2)
+                .map(|k| ratio_squared[k] / (1.0 + lambda * weight[k]).powi(2))
+                .sum::<f64>()
+        };
+        for major in [0, 1] {
+            let minor = 1 - major;
+            for utilisation in [1.0001_f64, 1.5, 4.0, 100.0, 1e6] {
+                for weight_ratio in [1.0, 1.5, 30.0, 1e4] {
+                    for share in [1e-3, 1e-4, 1e-5, 1e-7] {
+                        let mut weight: Members = [0.0; MAX_MEMBERS];
+                        weight[major] = 0.02 * weight_ratio;
+                        weight[minor] = 0.02;
+                        let mut ratio_squared: Members = [0.0; MAX_MEMBERS];
+                        ratio_squared[minor] = share * utilisation;
+                        ratio_squared[major] = utilisation - ratio_squared[minor];
+                        let largest = weight[0].max(weight[1]);
+                        let start = (utilisation.sqrt() - 1.0) / largest;
+                        let guess = newton_start(start, &weight, &ratio_squared, utilisation);
+                        // The root, bracketed by `start` (S >= 1 there) and the radial
+                        // multiplier of the smaller weight (S <= 1), each a little widened
+                        // (clear of rounding where the weights are equal).
+                        let (mut low, mut high) = (
+                            start * (1.0 - 1e-9),
+                            (utilisation.sqrt() - 1.0) / weight[minor] * (1.0 + 1e-9),
+                        );
+                        assert!(norm(&weight, &ratio_squared, low) >= 1.0);
+                        assert!(norm(&weight, &ratio_squared, high) <= 1.0);
+                        for _ in 0..200 {
+                            let middle = 0.5 * (low + high);
+                            if norm(&weight, &ratio_squared, middle) >= 1.0 {
+                                low = middle;
+                            } else {
+                                high = middle;
+                            }
+                        }
+                        let root = 0.5 * (low + high);
+                        let label = format!(
+                            "major {major}, utilisation {utilisation}, weights {weight:?}, share {share}: start {start}, guess {guess}, root {root}"
+                        );
+                        assert!(guess >= start, "{label}");
+                        // The lesser member's share of the force on the ellipse: the trial's
+                        // share where the utilisation is near one, larger where it is far
+                        // outside and the lesser member's weight smaller (it shrinks less).
+                        let on_ellipse = ratio_squared[minor] / (1.0 + root * weight[minor]).powi(2);
+                        // Rounding's part: `S` is known to a few roundings, and moves with
+                        // the multiplier by `2 (1 - 1 / sqrt(utilisation))` relative (a
+                        // utilisation near one leaves its multiplier to fewer bits).
+                        let rounding = 8.0 * f64::EPSILON / (1.0 - 1.0 / utilisation.sqrt());
+                        let error = (guess - root).abs() / root;
+                        if on_ellipse <= 1e-2 {
+                            assert!(
+                                error <= on_ellipse * on_ellipse + rounding,
+                                "{label}: relative error {error:e}, share on the ellipse {on_ellipse:e}"
+                            );
+                        }
+                        if utilisation <= 4.0 {
+                            assert!(
+                                error <= 2.0 * share * share + rounding,
+                                "{label}: relative error {error:e}"
+                            );
+                        }
+                        // The guard fails: the lesser share above the bound, or the larger
+                        // weight on the member with the lesser share.
+                        let mut shared = ratio_squared;
+                        shared[minor] = 10.0 * MINOR_SHARE * utilisation;
+                        shared[major] = utilisation - shared[minor];
+                        assert_eq!(
+                            newton_start(start, &weight, &shared, utilisation).to_bits(),
+                            start.to_bits(),
+                            "{label}"
+                        );
+                        if weight_ratio > 1.0 {
+                            let swapped = [weight[1], weight[0]];
+                            assert_eq!(
+                                newton_start(start, &swapped, &ratio_squared, utilisation).to_bits(),
+                                start.to_bits(),
+                                "{label}"
+                            );
+                        }
+                    }
                 }
             }
         }

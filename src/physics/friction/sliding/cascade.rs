@@ -1481,6 +1481,15 @@ mod tests {
         group: crate::physics::friction::Group,
         cases: impl Iterator<Item = ([f64; 3], [f64; 3])>,
     ) -> usize {
+        changes_of_mode_agree_at(group, 10.0, cases)
+    }
+
+    /// [`changes_of_mode_agree`] at the speed `vx`.
+    fn changes_of_mode_agree_at(
+        group: crate::physics::friction::Group,
+        vx: f64,
+        cases: impl Iterator<Item = ([f64; 3], [f64; 3])>,
+    ) -> usize {
         let mut p = Parameters::default()
             .with_model(ModelKind::Ddt)
             .with_friction(FrictionLaw::Brush);
@@ -1488,7 +1497,7 @@ mod tests {
         let load = p.get(Parameter::NominalLoad);
         let mut changed = 0;
         for (states, inputs) in cases {
-            with_prepared_step(&p, (10.0, load), (&states, inputs), |step, x, sliders, travel| {
+            with_prepared_step(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
                 let h = 1e-3;
                 let (mut x_cascade, mut sliders_cascade) = (x, sliders);
                 let taken =
@@ -1610,5 +1619,375 @@ mod tests {
         assert!(!ends_decided(&events));
         events[1][2] = f64::NAN;
         assert!(!ends_decided(&events));
+    }
+
+    /// A yaw branch (a driver) that reaches its limit within a step at standstill and
+    /// rolling backwards splits the cascade's step there too: the closed form's crossing
+    /// (the deflection where the trial force is on its limit, and `q(t)` inverted) holds
+    /// where the relaxation rates are those of vx = 0 or of a negative vx, and the step
+    /// ends where the whole-system path ends, in its modes (as at 10 m/s, above).
+    #[test]
+    fn a_driver_that_reaches_its_limit_splits_the_step_at_standstill_and_backwards() {
+        for vx in [0.0, -0.5, -10.0] {
+            let cases = [-0.5, -0.1, 0.1, 0.5].into_iter().flat_map(|steer_rate| {
+                (-20..=20).map(move |k| ([0.002 * f64::from(k), 0.3, 0.05], [0.05, steer_rate, 0.01]))
+            });
+            let changed = changes_of_mode_agree_at(crate::physics::friction::Group::Yaw, vx, cases);
+            assert!(changed > 0, "vx {vx}: no step had a yaw branch change mode");
+        }
+    }
+
+    /// The states and branch offsets of a step's end, for comparing ends.
+    fn end_values(x: &StateVector, sliders: &SliderState) -> Vec<f64> {
+        let mut all: Vec<f64> = x.as_slice()[..3].to_vec();
+        all.extend(sliders.offsets.iter().flatten());
+        all
+    }
+
+    /// The largest difference between two ends' values, relative to the largest of them
+    /// (or the elastic `travel`, where that is larger).
+    fn end_difference(a: &[f64], b: &[f64], travel: f64) -> f64 {
+        let largest = a.iter().chain(b).fold(travel, |m, v| m.max(v.abs()));
+        a.iter().zip(b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / largest
+    }
+
+    /// Several changes of mode within one long step (20 ms): the yaw deflections start up
+    /// to 0.06 of the travel either side (past the yaw limits), the steer rates drive them
+    /// back through zero, the lateral deflections start about their limit and vy moves
+    /// them, so that drivers and driven groups stop and start sliding, some more than once
+    /// (the slip reverses within the step). Where the cascade takes such a step it ends in
+    /// the modes the whole-system path ends in and within 1e-10 of the largest state or
+    /// offset of where it ends (as the single changes above); the changes are counted on a
+    /// reference of 80 pieces by the whole-system path, and steps with at least two, and
+    /// with at least three, must be among those the cascade took.
+    #[test]
+    fn several_changes_of_mode_within_a_long_step_end_where_the_whole_system_path_does() {
+        let h = 0.02;
+        let (mut several, mut three_or_more) = (0, 0);
+        for (law, combined) in [
+            (FrictionLaw::Coulomb, false),
+            (FrictionLaw::Coulomb, true),
+            (FrictionLaw::Brush, false),
+        ] {
+            let mut p = Parameters::default()
+                .with_model(ModelKind::Ddt)
+                .with_friction(law);
+            p.set(Parameter::LateralFriction, 0.01).unwrap();
+            if combined {
+                p.set(Parameter::LongitudinalFriction, 0.01).unwrap();
+            }
+            let load = p.get(Parameter::NominalLoad);
+            for vx in [3.0, 10.0] {
+                for yaw in (-3..=3).map(|k| 0.02 * f64::from(k)) {
+                    for lateral in (-3..=3).map(|k| 0.01 * f64::from(k)) {
+                        for (steer_rate, vy) in [-0.5, -0.1, 0.1, 0.5]
+                            .into_iter()
+                            .flat_map(|r| [-0.1, -0.03, 0.03, 0.1].map(|vy| (r, vy)))
+                        {
+                            let states = [yaw, lateral, 0.001];
+                            let inputs = [vy, steer_rate, 0.005];
+                            with_prepared_step(
+                                &p,
+                                (vx, load),
+                                (&states, inputs),
+                                |step, x, sliders, travel| {
+                                    let (mut x_cascade, mut sliders_cascade) = (x, sliders);
+                                    let taken = step.cascade_step(
+                                        &mut x_cascade,
+                                        &mut sliders_cascade,
+                                        h,
+                                        super::Start::Prepared,
+                                    );
+                                    if taken.is_none() {
+                                        return;
+                                    }
+                                    let (mut x_fine, mut sliders_fine) = (x, sliders);
+                                    let mut changes = 0;
+                                    for _ in 0..80 {
+                                        let before = sliders_fine.sliding;
+                                        step.integrate_by_current_method(
+                                            &mut x_fine,
+                                            &mut sliders_fine,
+                                            h / 80.0,
+                                        )
+                                        .expect("a valid step");
+                                        changes += before
+                                            .iter()
+                                            .flatten()
+                                            .zip(sliders_fine.sliding.iter().flatten())
+                                            .filter(|(a, b)| a != b)
+                                            .count();
+                                    }
+                                    let (mut x_whole, mut sliders_whole) = (x, sliders);
+                                    step.integrate_by_current_method(&mut x_whole, &mut sliders_whole, h)
+                                        .expect("a valid step");
+                                    let label =
+                                        format!("{law:?} combined {combined} vx {vx} {states:?} {inputs:?}");
+                                    assert_eq!(sliders_cascade.sliding, sliders_whole.sliding, "{label}");
+                                    let difference = end_difference(
+                                        &end_values(&x_cascade, &sliders_cascade),
+                                        &end_values(&x_whole, &sliders_whole),
+                                        travel,
+                                    );
+                                    assert!(
+                                        difference <= 1e-10,
+                                        "{label}: {changes} changes, {difference:e}"
+                                    );
+                                    several += usize::from(changes >= 2);
+                                    three_or_more += usize::from(changes >= 3);
+                                },
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            several > 0 && three_or_more > 0,
+            "too few steps with several changes taken: {several} with two or more, {three_or_more} with three or more"
+        );
+    }
+
+    /// A slide as [`with_settled_slide`] meets it (from `states` under driving `inputs`
+    /// held, settled for 20 ms), its cascade step of `h` seconds taken from there by a
+    /// step whose friction carries `carried` ([`super::super::HighOrderSubsteps`], as
+    /// [`crate::physics::Tire::set_high_order_substeps`] or an FMU state sets it): the end's
+    /// values where the cascade takes the step, the lengths it carries to the next step,
+    /// and the elastic travel.
+    fn settled_cascade_step(
+        p: &Parameters,
+        (vx, load): (f64, f64),
+        (states, inputs): (&[f64; 3], [f64; 3]),
+        h: f64,
+        carried: super::super::HighOrderSubsteps,
+    ) -> (Option<Vec<f64>>, super::super::HighOrderSubsteps, f64) {
+        use super::super::{SlidingStep, tire_at};
+        use crate::physics::state_space::DrivingVector;
+        let (system, mut friction, limits, travel) = tire_at(p, vx, load);
+        let u = DrivingVector::new(inputs[0], inputs[1], inputs[2]);
+        let mut x = StateVector::zeros();
+        for (k, state) in states.iter().enumerate() {
+            x[k] = state * travel;
+        }
+        let mut sliders = SliderState::AT_REST;
+        {
+            let step = SlidingStep::new(
+                &system,
+                &mut friction,
+                limits,
+                (u, DrivingVector::zeros()),
+                travel,
+            );
+            step.prepare(&mut x, &mut sliders);
+            step.integrate(&mut x, &mut sliders, 0.02).expect("a valid step");
+        }
+        friction.set_high_order_substeps(carried);
+        let step = SlidingStep::new(
+            &system,
+            &mut friction,
+            limits,
+            (u, DrivingVector::zeros()),
+            travel,
+        );
+        assert_eq!(step.high_order_carried, carried);
+        step.prepare(&mut x, &mut sliders);
+        let taken = step
+            .cascade_step(&mut x, &mut sliders, h, super::Start::Prepared)
+            .map(|_| end_values(&x, &sliders));
+        (taken, step.high_order_found.get(), travel)
+    }
+
+    /// A settled slide's parameters, speed and load, states and driving inputs.
+    type SettledSlide = (Parameters, (f64, f64), [f64; 3], [f64; 3]);
+
+    /// Settled DDT slides, laterally (muY 0.01) and in both directions (muX = muY = 0.01),
+    /// with either law, at 10 and -10 m/s, from a few starts and inputs: for each, its
+    /// parameters, speed and load, states and inputs.
+    fn settled_slides() -> Vec<SettledSlide> {
+        let mut cases = Vec::new();
+        for law in [FrictionLaw::Coulomb, FrictionLaw::Brush] {
+            for combined in [false, true] {
+                let p = super::super::slide_parameters(ModelKind::Ddt, law, combined);
+                let load = p.get(Parameter::NominalLoad);
+                for vx in [10.0, -10.0] {
+                    for (states, inputs) in [
+                        ([0.2, 0.5, 0.3], [0.1, 0.05, 0.01]),
+                        ([-0.4, 0.1, -0.6], [-0.05, 0.02, -0.02]),
+                        ([0.0, -0.8, 0.2], [0.3, -0.1, 0.05]),
+                        ([0.5, 0.5, 0.5], [-0.2, 0.3, -0.1]),
+                    ] {
+                        cases.push((p.clone(), (vx, load), states, inputs));
+                    }
+                }
+            }
+        }
+        cases
+    }
+
+    /// A carried first substep shorter than the step: the length the same step found
+    /// with nothing carried (as the next step would carry it), nine tenths of it, and a
+    /// third, 0.45 and 0.7 of the step. The step's first exprb42 substep is that length
+    /// in equal pieces of the step (`in_equal_pieces`: three, three and two pieces for the
+    /// shares), and the step, taken by the cascade, ends where the same step with nothing
+    /// carried ends (by the cascade too), within 1e-10 of the largest state or offset:
+    /// the carried length is the error control's first try, which moves the end by no
+    /// more than the tolerance. (Some ends differ in their bits: the carried length was
+    /// used, not ignored.)
+    #[test]
+    fn a_carried_first_substep_shorter_than_the_step_ends_where_nothing_carried_does() {
+        let (mut compared, mut differing) = (0, 0);
+        for (p, point, states, inputs) in settled_slides() {
+            for h in [1e-3, 2e-3] {
+                let (nothing, found, travel) =
+                    settled_cascade_step(&p, point, (&states, inputs), h, super::super::NOT_CARRIED);
+                let Some(nothing) = nothing else {
+                    continue;
+                };
+                for (share, pieces) in [(1.0 / 3.0, 3.0), (0.45, 3.0), (0.7, 2.0)] {
+                    assert_eq!(super::in_equal_pieces(h, share * h), h / pieces);
+                }
+                let lengths = [found[0], 0.9 * found[0], h / 3.0, 0.45 * h, 0.7 * h];
+                for carried in lengths.into_iter().filter(|&length| length < h) {
+                    let label = format!(
+                        "{:?} {point:?} {states:?} {inputs:?} h {h} carried {carried}",
+                        p.friction
+                    );
+                    let (with_carried, ..) =
+                        settled_cascade_step(&p, point, (&states, inputs), h, [carried, f64::INFINITY]);
+                    let Some(with_carried) = with_carried else {
+                        continue;
+                    };
+                    compared += 1;
+                    differing += usize::from(with_carried != nothing);
+                    let difference = end_difference(&nothing, &with_carried, travel);
+                    assert!(difference <= 1e-10, "{label}: {difference:e}");
+                }
+            }
+        }
+        assert!(
+            compared > 0 && differing > 0,
+            "{compared} steps compared, {differing} differing"
+        );
+    }
+
+    /// A carried first substep so short that the step would need more pieces than it may
+    /// take ([`super::MAX_SUBSTEPS`]: a length from a far shorter step) tells the step
+    /// nothing: it is ignored and the whole step tried first, so the cascade still takes
+    /// every step it takes with nothing carried (were the length used, the step would
+    /// need more substeps than allowed and be given up), and ends where that step does:
+    /// within 1e-10 of the largest state or offset, and, ignored as if none were carried,
+    /// in the same bits.
+    #[test]
+    fn a_carried_first_substep_too_short_for_the_step_is_ignored() {
+        let mut compared = 0;
+        for (p, point, states, inputs) in settled_slides() {
+            for h in [1e-3, 2e-3] {
+                let (nothing, _, travel) =
+                    settled_cascade_step(&p, point, (&states, inputs), h, super::super::NOT_CARRIED);
+                let Some(nothing) = nothing else {
+                    continue;
+                };
+                for pieces in [super::MAX_SUBSTEPS as f64 + 0.5, 20.0, 1e3] {
+                    let carried = h / pieces;
+                    let label = format!(
+                        "{:?} {point:?} {states:?} {inputs:?} h {h} carried {carried}",
+                        p.friction
+                    );
+                    let (with_carried, ..) =
+                        settled_cascade_step(&p, point, (&states, inputs), h, [carried, f64::INFINITY]);
+                    let with_carried = with_carried.unwrap_or_else(|| panic!("{label}: given up"));
+                    compared += 1;
+                    let difference = end_difference(&nothing, &with_carried, travel);
+                    assert!(difference <= 1e-10, "{label}: {difference:e}");
+                    // Ignored as if none were carried: the same substeps, the same bits.
+                    assert!(
+                        with_carried == nothing,
+                        "{label}: not the same bits ({difference:e})"
+                    );
+                }
+            }
+        }
+        assert!(
+            compared > 0,
+            "no step was taken by the cascade with nothing carried"
+        );
+    }
+
+    /// SPEC 7, with a carried length: a DDT tire sliding in both directions (muX = muY =
+    /// 0.01, either law) under the slide yardstick's inputs in 2 ms steps, its states,
+    /// branches, inputs and carried substep lengths saved every tenth step where the
+    /// cascade's first substep length is carried (finite), continues bit for bit when
+    /// they are restored (as `Instance::restore` restores an FMU state) onto a fresh tire
+    /// and onto one that has been stepping elsewhere: its states, outputs and carried
+    /// lengths after each of the next ten steps, under the yardstick's inputs, and under
+    /// the saved inputs held (where the saved tire starts each step from what its last
+    /// step's outputs prepared, which the state does not hold, and the restored one
+    /// decides the modes anew). Restored without the carried lengths, some continue
+    /// otherwise: the lengths are in play here.
+    #[test]
+    fn a_restored_state_with_a_carried_length_continues_bit_for_bit() {
+        use crate::physics::Tire;
+        let h = 2e-3;
+        let inputs_at = |k: usize| {
+            let t = k as f64 * h;
+            [10.0, 0.1 * t.sin(), 0.05 * t.cos(), 0.01 * t.sin(), 50_000.0]
+        };
+        let (mut restores, mut without_differs) = (0, 0);
+        for law in [FrictionLaw::Coulomb, FrictionLaw::Brush] {
+            let p = super::super::slide_parameters(ModelKind::Ddt, law, true);
+            let mut other = Tire::new(p.clone()).unwrap();
+            for j in 0..50 {
+                other.set_inputs([-5.0, 0.2, -0.1, 0.02, 30_000.0 + 100.0 * j as f64]);
+                other.step(h).unwrap();
+            }
+            let mut tire = Tire::new(p.clone()).unwrap();
+            for k in 0..100 {
+                tire.set_inputs(inputs_at(k));
+                tire.step(h).unwrap();
+                let carried = tire.high_order_substeps();
+                if k % 10 != 9 || !carried[0].is_finite() {
+                    continue;
+                }
+                let (states, sliders, inputs) =
+                    (tire.states().to_vec(), *tire.sliders().unwrap(), tire.inputs());
+                let restore = |onto: &Tire, lengths: Option<super::super::HighOrderSubsteps>| {
+                    let mut restored = onto.clone();
+                    restored.set_states(&states).unwrap();
+                    restored.set_sliders(&sliders).unwrap();
+                    if let Some(lengths) = lengths {
+                        restored.set_high_order_substeps(lengths);
+                    }
+                    restored.set_inputs(inputs);
+                    restored
+                };
+                for held in [false, true] {
+                    let run = |mut tire: Tire| -> Vec<u64> {
+                        let mut bits = Vec::new();
+                        for j in k + 1..k + 11 {
+                            tire.set_inputs(if held { inputs } else { inputs_at(j) });
+                            tire.step(h).unwrap();
+                            bits.extend(tire.states().iter().map(|v| v.to_bits()));
+                            bits.extend(tire.outputs().iter().map(|v| v.to_bits()));
+                            bits.extend(tire.high_order_substeps().map(f64::to_bits));
+                        }
+                        bits
+                    };
+                    let first = run(tire.clone());
+                    let fresh = Tire::new(p.clone()).unwrap();
+                    for (name, onto) in [("fresh", &fresh), ("other", &other)] {
+                        restores += 1;
+                        assert!(
+                            run(restore(onto, Some(carried))) == first,
+                            "{law:?}, saved after step {k} (carrying {carried:?}), held {held}: the {name} tire continues otherwise"
+                        );
+                    }
+                    without_differs += usize::from(run(restore(&fresh, None)) != first);
+                }
+            }
+        }
+        assert!(
+            restores > 0 && without_differs > 0,
+            "{restores} restores, {without_differs} continuing otherwise without the carried lengths"
+        );
     }
 }
