@@ -24,7 +24,15 @@
 //!   own end, as `h (32/9 D2 - 2 D3) / 6` (`phi3` at its largest); "42/est." is the most
 //!   its error reached of that estimate (over steps where the estimate is above 1e-13 of
 //!   the state). A step takes its end, whose rates it has made (the next substep's
-//!   start, or the outputs').
+//!   start, or the outputs'). Its own error is also estimated from the remainder's
+//!   quartic part, as DDT's cascade estimates it where the force turns: with the slope
+//!   at the end `N'(1) = h (J(end) - J) f(end)` (`J(end)` by central differences too),
+//!   `c = 256/9 D2 - 24 D3 + 4 N'(1)`, `b = N'(1) - 2 D3 - 2 c`, and the estimate
+//!   `h (|c| + |hJ b|) / 80`; over steps where the error is above 1e-13 of the state and
+//!   the third-order estimate within 1e-9 of it (where the cascade trusts the quartic
+//!   one), "42/sharp" is the most its error reached of that estimate where the estimate
+//!   was at least a fifth of the cascade's tolerance, and "42 below" the largest error
+//!   where it was less.
 //!
 //! `J` is the Jacobian of the rates at the start (central differences: its error, near
 //! 1e-10 relative, enters a step as `h^2 dJ f`, below 1e-14 of the states here). A step
@@ -44,8 +52,13 @@ use tirelag::physics::{FrictionLaw, ModelKind, Parameter, Parameters, Tire};
 mod support;
 
 const STEP: f64 = 1e-3;
-const STEPS: usize = 2000;
+/// To 3.5 s: past the yardstick's first reversal of the slip (at pi), where the
+/// branches stop sliding one by one and start again, their forces turning.
+const STEPS: usize = 3500;
 const REFERENCE_SUBSTEPS: usize = 4000;
+/// A fifth of the cascade's tolerance: below it, exprb42's quartic estimate is compared
+/// with the tolerance, not with the error (the error there is of terms it leaves out).
+const SHARP_FLOOR: f64 = 2e-13;
 
 /// `phi_1(X) .. phi_4(X)` from the exponential of the block matrix with `X` in its
 /// corner and identities above its diagonal (its top row of blocks is
@@ -115,6 +128,10 @@ struct Errors {
     euler_of_estimate: f64,
     exprb42: f64,
     exprb42_of_estimate: f64,
+    /// The most exprb42's error was of its quartic estimate where that was at least
+    /// [`SHARP_FLOOR`], and the largest error where it was below.
+    exprb42_of_sharp: f64,
+    exprb42_below_floor: f64,
     reference: f64,
     /// Terms of the Taylor series of `phi1(hJ) f` to rounding: the matrix-vector
     /// products a step's phi-functions would take without scaling.
@@ -185,7 +202,16 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     let stage = &z0 + &three_quarters_phi1 * &f0 * (0.75 * STEP);
     let d_stage = remainder(&stage);
     let exprb42 = &euler + &phi3 * &d_stage * (32.0 / 9.0 * STEP);
-    let exprb42_third = &exprb42 - (&d_stage * (32.0 / 9.0) - remainder(&exprb42) * 2.0) * (STEP / 6.0);
+    let d_end = remainder(&exprb42);
+    let exprb42_third = &exprb42 - (&d_stage * (32.0 / 9.0) - &d_end * 2.0) * (STEP / 6.0);
+    // The remainder's quartic part, from `D2`, `D3` and the slope at the end.
+    let end_rates = rates(tire, &exprb42);
+    let end_jacobian = crate::jacobian(tire, &exprb42, scale);
+    let slope = (&end_jacobian - &jacobian) * &end_rates * STEP;
+    let quartic = &d_stage * (256.0 / 9.0) - &d_end * 24.0 + &slope * 4.0;
+    let cubic = &slope - &d_end * 2.0 - &quartic * 2.0;
+    let turned = &jacobian * &cubic * STEP;
+    let sharp = (quartic.abs() + turned.abs()).amax() * STEP / 80.0 / scale;
 
     // The Co-Simulation step from the same start, in the same modes: where it leaves the
     // fixed-mode reference, a mode changed inside the step.
@@ -209,6 +235,13 @@ fn probe_step(tire: &mut Tire, errors: &mut Errors) {
     if exprb42_estimate > 1e-13 {
         errors.exprb42_of_estimate = errors.exprb42_of_estimate.max(error(&exprb42) / exprb42_estimate);
     }
+    if error(&exprb42) > 1e-13 && exprb42_estimate <= 1e-9 {
+        if sharp >= SHARP_FLOOR {
+            errors.exprb42_of_sharp = errors.exprb42_of_sharp.max(error(&exprb42) / sharp);
+        } else {
+            errors.exprb42_below_floor = errors.exprb42_below_floor.max(error(&exprb42));
+        }
+    }
     errors.reference = errors.reference.max(error(&coarser));
     errors.taylor_terms = errors.taylor_terms.max(taylor_terms(&(&jacobian * STEP), &f0));
 }
@@ -228,7 +261,7 @@ fn taylor_terms(x: &DMatrix<f64>, v: &DVector<f64>) -> usize {
 
 fn main() {
     println!(
-        "{:<22} {:>7} {:>7} {:>9} {:>11} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>7}",
+        "{:<22} {:>7} {:>7} {:>9} {:>11} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9} {:>9} {:>7}",
         "model, case",
         "steps",
         "events",
@@ -239,6 +272,8 @@ fn main() {
         "estimate",
         "exprb42",
         "42/est.",
+        "42/sharp",
+        "42 below",
         "reference",
         "terms"
     );
@@ -247,7 +282,7 @@ fn main() {
             let e = probe(model, combined);
             let case = if combined { "combined" } else { "lateral" };
             println!(
-                "{:<22} {:>7} {:>7} {:>9.1e} {:>11.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>8.1e} {:>9.1e} {:>7}",
+                "{:<22} {:>7} {:>7} {:>9.1e} {:>11.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>9.1e} {:>8.1e} {:>9.2} {:>9.1e} {:>9.1e} {:>7}",
                 format!("{model:?} {case}"),
                 e.probed,
                 e.with_events,
@@ -258,6 +293,8 @@ fn main() {
                 e.exprb43_estimate,
                 e.exprb42,
                 e.exprb42_of_estimate,
+                e.exprb42_of_sharp,
+                e.exprb42_below_floor,
                 e.reference,
                 e.taylor_terms
             );

@@ -26,7 +26,12 @@
 //!     error estimated from the end's rates ([`super::exponential::exponential_euler`]),
 //!     and the event values sampled half way as well.
 //!   - Otherwise (or where Euler is not within it), exprb42: fourth order from a stage
-//!     at three quarters and the end ([`super::exponential::exprb42`]).
+//!     at three quarters and the end ([`super::exponential::exprb42`]). Its estimate is
+//!     of a third-order solution, hundreds of times its error where a force turns after
+//!     its group starts sliding; where that estimate would not let the rest of the step
+//!     be one substep, exprb42's own error is estimated from the remainder's quartic
+//!     part as well ([`quartic_estimate`], with the Jacobian at the end, which the next
+//!     substep takes), and a substep within either margin is taken.
 //!
 //!   The groups are evaluated side by side, so that their projections' Newton steps
 //!   overlap.
@@ -61,8 +66,8 @@
 use super::course::{Course, crossing_search};
 use super::events::{InteriorSearch, NEAR_EVENT};
 use super::exponential::{
-    EXPRB42_MARGIN, LinearPart, euler_within, exponential_euler, exprb42, largest_size, negligible_term,
-    resize, resize_euler, resized,
+    EXPRB42_MARGIN, Exprb42Substep, LinearPart, euler_within, exponential_euler, exprb42, largest_size,
+    negligible_term, resize, resize_euler, resized,
 };
 use super::extrapolation::{Row, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
@@ -99,8 +104,8 @@ const AIM: f64 = 0.8;
 
 /// How much longer than a substep whose estimate was `error` one would be whose estimate
 /// would be [`AIM`] of exprb42's margin (it grows as the length's fourth power). The
-/// estimate is of a third-order solution, and exprb42's end was within a
-/// tenth of it over DDT's slides, so a substep that meets its aim is well inside the
+/// estimate is of a third-order solution, and exprb42's end was within 0.14 of it over
+/// DDT's slides ([`EXPRB42_MARGIN`]), so a substep that meets its aim is inside the
 /// tolerance; aimed higher, a force that turns after a group starts sliding needs fewer
 /// substeps for the same step (over the slide yardstick's combined case, all exprb42
 /// attempts fell from 4941 to 4711 with the step in equal pieces, against aiming at a
@@ -124,16 +129,67 @@ fn pieces_of(rest: f64, allowed: f64) -> f64 {
     (rest / allowed * (1.0 - 4.0 * f64::EPSILON)).ceil()
 }
 
-/// The length exprb42's first substep of a step could have had, carried to the next step
-/// ([`HighOrderSubsteps`]; its second is not carried): at [`aimed_factor`]. A force that
-/// turns after a group starts sliding takes tens of steps to settle, its estimate at the
-/// step's start falling by a few percent a step; each of those steps would otherwise try
-/// the whole step, come back too long and take shorter substeps than it needs. Over 4000
-/// steps of the slide yardstick's combined case, the first attempts that came back too
-/// long went from 500 to 12, and all exprb42 attempts from 5312 to 4941 (4812 to 4925 of
-/// them taken).
-fn carried_first_substep(length: f64, error: f64) -> HighOrderSubsteps {
-    [length * aimed_factor(error), f64::INFINITY]
+/// The length exprb42's first substep of a step could have had (at [`aimed_factor`], or
+/// longer by its quartic estimate, [`sharper_factor`]), carried to the next step
+/// ([`HighOrderSubsteps`]; its second is not carried). A force that turns after a group
+/// starts sliding takes tens of steps to settle, its estimate at the step's start
+/// falling by a few percent a step; each of those steps would otherwise try the whole
+/// step, come back too long and take shorter substeps than it needs. Over 4000 steps of
+/// the slide yardstick's combined case, the first attempts that came back too long went
+/// from 500 to 12, and all exprb42 attempts from 5312 to 4941 (4812 to 4925 of them
+/// taken).
+fn carried_first_substep(length: f64, factor: f64) -> HighOrderSubsteps {
+    [length * factor, f64::INFINITY]
+}
+
+/// The most exprb42's third-order estimate may be, in tolerances, for its own error to be
+/// estimated from the remainder's quartic part ([`quartic_estimate`]): 1e-9 of the state,
+/// as far as `cargo bench --bench exponential_probe` compares that estimate with the
+/// error.
+const SHARPER_WITHIN: f64 = 200.0 * EXPRB42_MARGIN;
+
+/// How many times the tolerance exprb42's error estimated from the remainder's quartic
+/// part may be. Over DDT's slides to 3.5 s, past the slip's first reversal (`cargo bench
+/// --bench exponential_probe`, columns "42/sharp" and "42 below"), the error was at most
+/// 0.84 of that estimate where the estimate was at least a fifth of the tolerance, and
+/// at most 0.35 tolerances where it was less: a substep taken by it is within 0.35 of
+/// the tolerance (0.46 at the largest ratio over every model, RingBody's 1.14).
+const SHARPER_MARGIN: f64 = 0.4;
+
+/// How much longer than a substep whose quartic estimate was `sharp` one would be whose
+/// estimate would be [`AIM`] of [`SHARPER_MARGIN`] (it grows as the length's fifth
+/// power), and no longer than the third-order estimate `error` would be within
+/// [`SHARPER_WITHIN`] there.
+fn sharper_factor(error: f64, sharp: f64) -> f64 {
+    let by_own_error = (AIM * SHARPER_MARGIN / sharp.max(1e-10 * SHARPER_MARGIN)).powf(0.2);
+    let trusted = (AIM * SHARPER_WITHIN / error.max(1e-10)).sqrt().sqrt();
+    by_own_error.min(trusted)
+}
+
+/// `end` less exprb42's own error as estimated from the remainder's quartic part, for
+/// the error ratio of the two. Along the substep, `N(theta) = a theta^2 + b theta^3 + c
+/// theta^4` (`N(0)` and its slope zero: `J` is the start's Jacobian); `D2 = N(3/4)`,
+/// `D3 = N(1)` and the slope at the end `N'(1) = H (J(end) - J) f(end)` give
+/// `c = 256/9 D2 - 24 D3 + 4 N'(1)` and `b = N'(1) - 2 D3 - 2 c`. exprb42 takes the cubic
+/// exactly where `X` is small, and leaves `H (c + X b) / 80` (the first terms of
+/// `H ((9/8 phi3 - 24 phi5) c + (3/2 phi3 - 6 phi4) b)`): where the force turns, the
+/// third-order estimate is hundreds of times that.
+fn quartic_estimate(
+    (linear, end_linear): (&DrivenLinearPart, &DrivenLinearPart),
+    (end, end_rates): (&Driven, &Driven),
+    [d2, d3]: &[Driven; 2],
+) -> Driven {
+    let (at_end, at_start) = (end_linear.times(end_rates), linear.times(end_rates));
+    let mut cubic = [0.0; DRIVEN];
+    let mut quartic = [0.0; DRIVEN];
+    for c in 0..DRIVEN {
+        let slope = at_end[c] - at_start[c];
+        quartic[c] = 256.0 / 9.0 * d2[c] - 24.0 * d3[c] + 4.0 * slope;
+        cubic[c] = slope - 2.0 * d3[c] - 2.0 * quartic[c];
+    }
+    let turned = linear.times(&cubic);
+    let length = linear.length();
+    std::array::from_fn(|c| end[c] - length / 80.0 * (quartic[c].abs() + turned[c].abs()))
 }
 
 /// Changes of mode of the driven groups within one step before the whole-system path
@@ -656,6 +712,8 @@ impl SlidingStep<'_> {
         // exprb42, is thrown away (as the slip reverses, its estimates were hundreds of
         // times its margin). Nor again within the step once it has been thrown away.
         let mut euler_may_do = carried >= h || ignored;
+        // The Jacobian where the next substep starts, where the quartic estimate made it.
+        let mut next_slopes = None;
         // Over the groups' deflections: the `q`s are exact.
         let deflections = entry(groups.count(), 0);
         let negligible = negligible_term(self.scale, largest);
@@ -708,7 +766,9 @@ impl SlidingStep<'_> {
             if taken == MAX_SUBSTEPS || h - t > length * (MAX_SUBSTEPS - taken) as f64 {
                 return None;
             }
-            let slopes = groups.slopes(&inputs, &rates);
+            let slopes = next_slopes
+                .take()
+                .unwrap_or_else(|| groups.slopes(&inputs, &rates));
             if stiff {
                 let (end, factor) =
                     match self.driven_implicit_substep(groups, (t, &w), (&rates, &events), &slopes, length) {
@@ -810,7 +870,11 @@ impl SlidingStep<'_> {
                             };
                             Some(rates)
                         };
-                        let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
+                        let Exprb42Substep {
+                            end,
+                            third,
+                            remainders,
+                        } = exprb42(&linear, &w, &rates, stage_rates)?;
                         let samples = groups.samples(
                             (&w, &rates, &events),
                             (0.75, &stage_events),
@@ -821,16 +885,45 @@ impl SlidingStep<'_> {
                             Samples::Crossing(crossing) => crossing,
                             Samples::Clear => {
                                 let error = error_of(&end, &third);
+                                let mut factor = aimed_factor(error);
+                                // Where the third-order estimate would not let the rest of
+                                // the step be one substep (a force that turns), exprb42's own
+                                // error from the remainder's quartic part, with the Jacobian
+                                // at the end, which the next substep takes.
+                                let sharper =
+                                    (length * factor < h - t && error <= SHARPER_WITHIN).then(|| {
+                                        let (end_inputs, _) = groups.inputs(&end);
+                                        let end_slopes = groups.slopes(&end_inputs, &end_rates);
+                                        let end_linear = groups.linear_part(&end_slopes, length, negligible);
+                                        let estimate = quartic_estimate(
+                                            (&linear, &end_linear),
+                                            (&end, &end_rates),
+                                            &remainders,
+                                        );
+                                        (error_of(&end, &estimate), end_slopes)
+                                    });
+                                let sharply_within = sharper
+                                    .as_ref()
+                                    .is_some_and(|(sharp, _)| *sharp <= SHARPER_MARGIN);
+                                if let Some((sharp, _)) = &sharper {
+                                    factor = factor.max(sharper_factor(error, *sharp));
+                                }
                                 if t == 0.0 {
-                                    self.high_order_found.set(carried_first_substep(length, error));
+                                    self.high_order_found.set(carried_first_substep(length, factor));
                                 }
                                 // Within the margin, taken; the next at its aim, in the
                                 // bounds of any resizing.
-                                let (accepted, factor) = resized(error / EXPRB42_MARGIN, aimed_factor(error));
+                                let within = if sharply_within {
+                                    0.0
+                                } else {
+                                    error / EXPRB42_MARGIN
+                                };
+                                let (accepted, factor) = resized(within, factor);
                                 let allowed = length * factor;
                                 if accepted {
                                     (w, t, taken) = (end, t + length, taken + 1);
                                     (kept, changes) = (true, end_changes);
+                                    next_slopes = sharper.map(|(_, slopes)| slopes);
                                 }
                                 length = in_equal_pieces(h - t, allowed.min(longest));
                                 continue;
@@ -862,7 +955,7 @@ impl SlidingStep<'_> {
                             at_end = events;
                             Some(rates)
                         };
-                        let (end, third) = exprb42(&linear, &w, &rates, stage_rates)?;
+                        let Exprb42Substep { end, third, .. } = exprb42(&linear, &w, &rates, stage_rates)?;
                         Some((end, error_of(&end, &third), at_end))
                     };
                     let found = crossing_search(

@@ -37,7 +37,7 @@
 //!   difference `H phi3(X) (32/9 D2 - 2 D3)`, taken with `phi3` at its largest, `1/6`
 //!   (where the slide's modes decay, `X <= 0`, as DDT's do), so that the estimate needs no
 //!   series of its own. Over DDT's slides (`cargo bench --bench exponential_probe`, column
-//!   "42/est.") the fourth-order end's error was at most 0.10 of that estimate
+//!   "42/est.") the fourth-order end's error was at most 0.14 of that estimate
 //!   ([`EXPRB42_MARGIN`]). (Where the modes oscillate, as SecondOrder's and RingBody's
 //!   ring, `1/6` is not the largest and the estimate would fall short: their substeps
 //!   take exprb43.)
@@ -91,9 +91,9 @@ const NEGLIGIBLE: f64 = 1e-3;
 const ESTIMATE_MARGIN: f64 = 20.0;
 
 /// How many times the tolerance exprb42's estimate may be: its fourth-order end's error
-/// was at most 0.10 of the estimate over DDT's slides in one direction and in two (`cargo
-/// bench --bench exponential_probe`, column "42/est."), so its end stays within half the
-/// tolerance.
+/// was at most 0.14 of the estimate over DDT's slides in one direction and in two, to 3.5
+/// s, past the slip's first reversal (`cargo bench --bench exponential_probe`, column
+/// "42/est."), so its end stays within 0.7 of the tolerance.
 pub(super) const EXPRB42_MARGIN: f64 = 5.0;
 
 /// How many times the tolerance exponential Euler's estimate of its own error may be: its
@@ -503,8 +503,9 @@ pub(super) fn exprb43<const E: usize>(
 }
 
 /// One exprb42 substep of `X = H J` from `z` with its rates `f0` (see the module's doc):
-/// its fourth-order end and the third-order solution from the rates there, or `None`
-/// where a series would be long, a value is not finite, or `stage_rates` gives up.
+/// its fourth-order end, the third-order solution from the rates there, and the
+/// remainders `D2` and `D3` at the stage and the end; or `None` where a series would be
+/// long, a value is not finite, or `stage_rates` gives up.
 /// `stage_rates(k, u)` gives the rates at `U2` (`k = 1`, three quarters of the substep
 /// on) and at the end (`k = 2`), which the caller keeps as the next substep's start.
 #[inline(always)]
@@ -513,7 +514,7 @@ pub(super) fn exprb42<const E: usize>(
     z: &[f64; E],
     f0: &[f64; E],
     mut stage_rates: impl FnMut(usize, &[f64; E]) -> Option<[f64; E]>,
-) -> Option<([f64; E], [f64; E])> {
+) -> Option<Exprb42Substep<E>> {
     let length = linear.length();
     let (whole, d2) = first_stage(linear, (z, f0), (0.75, &THREE_QUARTER_POWERS), &mut stage_rates)?;
     let [d2_phi3] = linear.series(&d2, |j| [phi(3, j)])?;
@@ -533,7 +534,21 @@ pub(super) fn exprb42<const E: usize>(
     for c in 0..E {
         third[c] -= length / 6.0 * ((32.0 / 9.0) * d2[c] - 2.0 * d3[c]);
     }
-    third.iter().all(|v| v.is_finite()).then_some((end, third))
+    third.iter().all(|v| v.is_finite()).then_some(Exprb42Substep {
+        end,
+        third,
+        remainders: [d2, d3],
+    })
+}
+
+/// An [`exprb42`] substep: its fourth-order end, the third-order solution from the rates
+/// there (their difference is its estimate), and the remainders `D2` and `D3` at the
+/// stage and the end (from which its own error is estimated where that estimate is far
+/// above it).
+pub(super) struct Exprb42Substep<const E: usize> {
+    pub(super) end: [f64; E],
+    pub(super) third: [f64; E],
+    pub(super) remainders: [[f64; E]; 2],
 }
 
 #[cfg(test)]
