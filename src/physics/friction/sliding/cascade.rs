@@ -152,9 +152,11 @@ const SHARPER_WITHIN: f64 = 200.0 * EXPRB42_MARGIN;
 /// part may be. Over DDT's slides to 3.5 s, past the slip's first reversal (`cargo bench
 /// --bench exponential_probe`, columns "42/sharp" and "42 below"), the error was at most
 /// 0.84 of that estimate where the estimate was at least a fifth of the tolerance, and
-/// at most 0.35 tolerances where it was less: a substep taken by it is within 0.35 of
-/// the tolerance (0.46 at the largest ratio over every model, RingBody's 1.14).
-const SHARPER_MARGIN: f64 = 0.4;
+/// at most 0.35 tolerances where it was less: a substep taken by it is within half the
+/// tolerance, as by the third-order estimate (0.68 at the largest ratio over every
+/// model, RingBody's 1.14). At 0.4 the passes with a reversal took 0.6 % more
+/// instructions.
+const SHARPER_MARGIN: f64 = 0.6;
 
 /// How much longer than a substep whose quartic estimate was `sharp` one would be whose
 /// estimate would be [`AIM`] of [`SHARPER_MARGIN`] (it grows as the length's fifth
