@@ -902,7 +902,14 @@ impl SlidingStep<'_> {
                                             (&end, &end_rates),
                                             &remainders,
                                         );
-                                        (error_of(&end, &estimate), end_slopes)
+                                        // (A value not finite leaves the third-order estimate
+                                        // alone to decide.)
+                                        let sharp = if estimate.iter().all(|v| v.is_finite()) {
+                                            error_of(&end, &estimate)
+                                        } else {
+                                            f64::INFINITY
+                                        };
+                                        (sharp, end_slopes)
                                     });
                                 let sharply_within = sharper
                                     .as_ref()
@@ -913,7 +920,7 @@ impl SlidingStep<'_> {
                                 if t == 0.0 {
                                     self.high_order_found.set(carried_first_substep(length, factor));
                                 }
-                                // Within the margin, taken; the next at its aim, in the
+                                // Within either margin, taken; the next at its aim, in the
                                 // bounds of any resizing.
                                 let within = if sharply_within {
                                     0.0
