@@ -3,7 +3,7 @@
 //!
 //! Each model is driven with the slide yardstick's inputs (`../shared/bench/host.c`: vx
 //! and Fz varying, 1 ms steps, Brush friction, muY = 0.01 "lateral", or muX = muY = 0.01
-//! "combined"). At every tenth step from 0.1 s to 2 s (every hundredth under
+//! "combined"). At every tenth step from 0.1 s to 3.5 s (every hundredth under
 //! `cargo test --benches`, a smoke run) the step's start (states and modes
 //! as the step decides them) is taken, and its rates in those modes (the Model Exchange
 //! view of the tire, [`Tire::continuous_rates`]) are integrated over the step by:

@@ -135,27 +135,28 @@ fn pieces_of(rest: f64, allowed: f64) -> f64 {
 /// starts sliding takes tens of steps to settle, its estimate at the step's start
 /// falling by a few percent a step; each of those steps would otherwise try the whole
 /// step, come back too long and take shorter substeps than it needs. Over 4000 steps of
-/// the slide yardstick's combined case, the first attempts that came back too long went
-/// from 500 to 12, and all exprb42 attempts from 5312 to 4941 (4812 to 4925 of them
-/// taken).
+/// the slide yardstick's combined case (before the quartic estimate), the first attempts
+/// that came back too long went from 500 to 12, and all exprb42 attempts from 5312 to
+/// 4941 (4812 to 4925 of them taken).
 fn carried_first_substep(length: f64, factor: f64) -> HighOrderSubsteps {
     [length * factor, f64::INFINITY]
 }
 
 /// The most exprb42's third-order estimate may be, in tolerances, for its own error to be
-/// estimated from the remainder's quartic part ([`quartic_estimate`]): 1e-9 of the state,
-/// as far as `cargo bench --bench exponential_probe` compares that estimate with the
-/// error.
-const SHARPER_WITHIN: f64 = 200.0 * EXPRB42_MARGIN;
+/// estimated from the remainder's quartic part ([`quartic_estimate`]): at most 1e-9 of
+/// the largest state (an entry's tolerance is at most twice the largest state's), as far
+/// as `cargo bench --bench exponential_probe` compares that estimate with the error
+/// (beyond, to 2e-9, DDT's error reached 1.19 of it).
+const SHARPER_WITHIN: f64 = 100.0 * EXPRB42_MARGIN;
 
 /// How many times the tolerance exprb42's error estimated from the remainder's quartic
 /// part may be. Over DDT's slides to 3.5 s, past the slip's first reversal (`cargo bench
 /// --bench exponential_probe`, columns "42/sharp" and "42 below"), the error was at most
 /// 0.84 of that estimate where the estimate was at least a fifth of the tolerance, and
-/// at most 0.35 tolerances where it was less: a substep taken by it is within half the
-/// tolerance, as by the third-order estimate (0.68 at the largest ratio over every
-/// model, RingBody's 1.14). At 0.4 the passes with a reversal took 0.6 % more
-/// instructions.
+/// at most 0.35 tolerances where it was less: a substep taken by it is within about half
+/// the tolerance (0.68 at the largest ratio over every model, RingBody's 1.14), as one
+/// taken by the third-order estimate is within 0.7 of it. At 0.4 the passes with a
+/// reversal took 0.6 % more instructions.
 const SHARPER_MARGIN: f64 = 0.6;
 
 /// How much longer than a substep whose quartic estimate was `sharp` one would be whose
@@ -173,9 +174,10 @@ fn sharper_factor(error: f64, sharp: f64) -> f64 {
 /// theta^4` (`N(0)` and its slope zero: `J` is the start's Jacobian); `D2 = N(3/4)`,
 /// `D3 = N(1)` and the slope at the end `N'(1) = H (J(end) - J) f(end)` give
 /// `c = 256/9 D2 - 24 D3 + 4 N'(1)` and `b = N'(1) - 2 D3 - 2 c`. exprb42 takes the cubic
-/// exactly where `X` is small, and leaves `H (c + X b) / 80` (the first terms of
-/// `H ((9/8 phi3 - 24 phi5) c + (3/2 phi3 - 6 phi4) b)`): where the force turns, the
-/// third-order estimate is hundreds of times that.
+/// exactly where `X` is small, and leaves about `H (X b - c) / 80` (the first terms of
+/// `H ((9/8 phi3 - 24 phi5) c + (3/2 phi3 - 6 phi4) b)`), bounded here entry by entry by
+/// `H (|c| + |X b|) / 80`: where the force turns, the third-order estimate is hundreds of
+/// times that.
 fn quartic_estimate(
     (linear, end_linear): (&DrivenLinearPart, &DrivenLinearPart),
     (end, end_rates): (&Driven, &Driven),
@@ -323,8 +325,9 @@ fn none_past(events: &Events) -> bool {
 /// its ellipse, [`GroupInput::outside`]). A group may end a step within the event
 /// tolerance past its event, still in its mode, where a step from a restored state,
 /// which decides its modes itself, would find the other (SPEC 7: it must go on the same
-/// way): such an end prepares nothing for the next step, which then decides its modes
-/// as after a restore.
+/// way): such an end does not prepare its own modes for the next step; the outputs made
+/// from its states decide them there, as a restored state's step does (by the whole
+/// system's rates rather than the cascade's, which agree but within rounding of a limit).
 fn ends_decided(events: &Events) -> bool {
     events.iter().flatten().all(|&event| event < 0.0)
 }
@@ -680,10 +683,11 @@ impl SlidingStep<'_> {
     /// two. A group that crosses its event in an explicit substep changes mode there
     /// (in `groups`' modes; see the module's doc). The driven vector at the end, or
     /// `None` where a group's course is not sure, a group at its event moves back from
-    /// it, a stiff substep nears an event, or they need more than [`MAX_SUBSTEPS`]. With the end, what the limits take off the
-    /// groups' sticking forces there where the last substep's end was evaluated as the
-    /// outputs are made (an explicit substep's, [`SlidingStep::shaped_evaluation`]), its
-    /// states and branches then written to `end_at`.
+    /// it, a stiff substep nears an event, or they need more than [`MAX_SUBSTEPS`]. With
+    /// the end, what the limits take off the groups' sticking forces there where the last
+    /// substep's end was evaluated as the outputs are made (an explicit substep's,
+    /// [`SlidingStep::shaped_evaluation`]) and every group is in the mode deciding there
+    /// finds ([`ends_decided`]), its states and branches then written to `end_at`.
     fn driven_step(
         &self,
         cascade: &Cascade,
@@ -696,6 +700,8 @@ impl SlidingStep<'_> {
         // that their samples of the event values are as close; the implicit ones try the
         // whole step first, as there.
         let longest = if stiff { h } else { 0.25 * self.longest_substep() };
+        // Its pieces may be a few roundings longer ([`pieces_of`]): no sliver is left.
+        let longest_piece = longest * (1.0 + 4.0 * f64::EPSILON);
         // An explicit first substep as long as the last step's could have been, in equal
         // pieces of the step ([`carried_first_substep`]).
         let carried = self.high_order_carried[0];
@@ -737,9 +743,10 @@ impl SlidingStep<'_> {
             if t >= h {
                 // An explicit substep's end was evaluated, its events followed there.
                 if kept {
-                    // The end's shaping (and the modes it prepares for the next step) only
-                    // where every group is in the mode deciding there finds
-                    // ([`ends_decided`]); otherwise the outputs are made on demand.
+                    // The end's shaping (and the step's modes, prepared for the next step)
+                    // only where every group is in the mode deciding there finds
+                    // ([`ends_decided`]); otherwise the outputs are made from the end's
+                    // states, and the modes prepared are those decided there.
                     return Some((w, changes.filter(|_| ends_decided(&end_events))));
                 }
                 return all_clear(&groups.events(&w)).then_some((w, None));
@@ -764,8 +771,9 @@ impl SlidingStep<'_> {
             }
             // Substeps that cannot finish the step within the rest at the length the error
             // control allows: the whole-system path takes it, known early.
-            length = length.min(h - t).min(longest);
-            if taken == MAX_SUBSTEPS || h - t > length * (MAX_SUBSTEPS - taken) as f64 {
+            length = length.min(h - t).min(longest_piece);
+            let pieces_left = (MAX_SUBSTEPS - taken) as f64 * (1.0 + 4.0 * f64::EPSILON);
+            if taken == MAX_SUBSTEPS || h - t > length * pieces_left {
                 return None;
             }
             let slopes = next_slopes
