@@ -126,8 +126,11 @@ fn in_equal_pieces(rest: f64, allowed: f64) -> f64 {
 /// How many pieces no longer than `allowed` make `rest`: a rest a few roundings past a
 /// whole number of them is that number (one more piece would be a substep for nothing).
 fn pieces_of(rest: f64, allowed: f64) -> f64 {
-    (rest / allowed * (1.0 - 4.0 * f64::EPSILON)).ceil()
+    (rest / allowed * (1.0 - ROUNDINGS)).ceil()
 }
+
+/// The few roundings by which a piece of [`in_equal_pieces`] may be longer than allowed.
+const ROUNDINGS: f64 = 4.0 * f64::EPSILON;
 
 /// The length exprb42's first substep of a step could have had (at [`aimed_factor`], or
 /// longer by its quartic estimate, [`sharper_factor`]), carried to the next step
@@ -170,7 +173,7 @@ fn sharper_factor(error: f64, sharp: f64) -> f64 {
 }
 
 /// `end` less exprb42's own error as estimated from the remainder's quartic part, for
-/// the error ratio of the two. Along the substep, `N(theta) = a theta^2 + b theta^3 + c
+/// the error ratio of the two ([`DrivenGroups::quartic_estimate`]). Along the substep, `N(theta) = a theta^2 + b theta^3 + c
 /// theta^4` (`N(0)` and its slope zero: `J` is the start's Jacobian); `D2 = N(3/4)`,
 /// `D3 = N(1)` and the slope at the end `N'(1) = H (J(end) - J) f(end)` give
 /// `c = 256/9 D2 - 24 D3 + 4 N'(1)` and `b = N'(1) - 2 D3 - 2 c`. exprb42 takes the cubic
@@ -593,7 +596,7 @@ impl SlidingStep<'_> {
             Start::Undecided | Start::Given => self.fastest_sliding_rate(&modes),
         };
         let stiff = h * fastest > STIFF_STEP;
-        let (driven, changes) = match (groups.as_mut(), w) {
+        let (driven, shaping) = match (groups.as_mut(), w) {
             (Some(groups), Some(w)) => {
                 let stepped = self.driven_step(
                     cascade,
@@ -613,17 +616,21 @@ impl SlidingStep<'_> {
             // No planar group has a member (no limit in either direction): nothing to step.
             _ => ([0.0; DRIVEN], None),
         };
-        match changes {
+        match shaping {
             Some(_) => (*x, *sliders) = end_at,
             None => {
                 let start = *sliders;
                 self.whole_end(cascade, (&end, &modes, &start), &driven, (x, sliders));
             }
         }
+        // The end's shaping (and the step's modes, prepared for the next step) only where
+        // every group is in the mode deciding there finds ([`ends_decided`]); otherwise the
+        // outputs are made from the end's states, and the modes prepared are those decided
+        // there.
         Some(Part::Taken(
-            changes
-                .filter(|_| drivers_decided)
-                .and_then(|changes| self.shaped_end(&modes, fastest, changes)),
+            shaping
+                .filter(|shaping| shaping.decided && drivers_decided)
+                .and_then(|shaping| self.shaped_end(&modes, fastest, shaping.changes)),
         ))
     }
 
@@ -686,8 +693,8 @@ impl SlidingStep<'_> {
     /// it, a stiff substep nears an event, or they need more than [`MAX_SUBSTEPS`]. With
     /// the end, what the limits take off the groups' sticking forces there where the last
     /// substep's end was evaluated as the outputs are made (an explicit substep's,
-    /// [`SlidingStep::shaped_evaluation`]) and every group is in the mode deciding there
-    /// finds ([`ends_decided`]), its states and branches then written to `end_at`.
+    /// [`SlidingStep::shaped_evaluation`]), its states and branches then written to
+    /// `end_at`.
     fn driven_step(
         &self,
         cascade: &Cascade,
@@ -695,13 +702,13 @@ impl SlidingStep<'_> {
         mut w: Driven,
         (z, sliders, end_at): (&Vector, &SliderState, &mut (StateVector, SliderState)),
         (h, largest, stiff): (f64, f64, bool),
-    ) -> Option<(Driven, Option<LimitChanges>)> {
+    ) -> Option<(Driven, Option<EndShaping>)> {
         // The explicit substeps stay as short as the whole system's exponential ones, so
         // that their samples of the event values are as close; the implicit ones try the
         // whole step first, as there.
         let longest = if stiff { h } else { 0.25 * self.longest_substep() };
         // Its pieces may be a few roundings longer ([`pieces_of`]): no sliver is left.
-        let longest_piece = longest * (1.0 + 4.0 * f64::EPSILON);
+        let longest_piece = longest * (1.0 + ROUNDINGS);
         // An explicit first substep as long as the last step's could have been, in equal
         // pieces of the step ([`carried_first_substep`]).
         let carried = self.high_order_carried[0];
@@ -743,11 +750,8 @@ impl SlidingStep<'_> {
             if t >= h {
                 // An explicit substep's end was evaluated, its events followed there.
                 if kept {
-                    // The end's shaping (and the step's modes, prepared for the next step)
-                    // only where every group is in the mode deciding there finds
-                    // ([`ends_decided`]); otherwise the outputs are made from the end's
-                    // states, and the modes prepared are those decided there.
-                    return Some((w, changes.filter(|_| ends_decided(&end_events))));
+                    let decided = ends_decided(&end_events);
+                    return Some((w, changes.map(|changes| EndShaping { changes, decided })));
                 }
                 return all_clear(&groups.events(&w)).then_some((w, None));
             }
@@ -772,7 +776,7 @@ impl SlidingStep<'_> {
             // Substeps that cannot finish the step within the rest at the length the error
             // control allows: the whole-system path takes it, known early.
             length = length.min(h - t).min(longest_piece);
-            let pieces_left = (MAX_SUBSTEPS - taken) as f64 * (1.0 + 4.0 * f64::EPSILON);
+            let pieces_left = (MAX_SUBSTEPS - taken) as f64 * (1.0 + ROUNDINGS);
             if taken == MAX_SUBSTEPS || h - t > length * pieces_left {
                 return None;
             }
@@ -900,25 +904,12 @@ impl SlidingStep<'_> {
                                 // the step be one substep (a force that turns), exprb42's own
                                 // error from the remainder's quartic part, with the Jacobian
                                 // at the end, which the next substep takes.
-                                let sharper =
-                                    (length * factor < h - t && error <= SHARPER_WITHIN).then(|| {
-                                        let (end_inputs, _) = groups.inputs(&end);
-                                        let end_slopes = groups.slopes(&end_inputs, &end_rates);
-                                        let end_linear = groups.linear_part(&end_slopes, length, negligible);
-                                        let estimate = quartic_estimate(
-                                            (&linear, &end_linear),
-                                            (&end, &end_rates),
-                                            &remainders,
-                                        );
-                                        // (A value not finite leaves the third-order estimate
-                                        // alone to decide.)
-                                        let sharp = if estimate.iter().all(|v| v.is_finite()) {
-                                            error_of(&end, &estimate)
-                                        } else {
-                                            f64::INFINITY
-                                        };
-                                        (sharp, end_slopes)
-                                    });
+                                let sharper = (length * factor < h - t && error <= SHARPER_WITHIN)
+                                    .then(|| {
+                                        groups.quartic_estimate(&linear, (&end, &end_rates), &remainders)
+                                    })
+                                    .flatten()
+                                    .map(|(estimate, end_slopes)| (error_of(&end, &estimate), end_slopes));
                                 let sharply_within = sharper
                                     .as_ref()
                                     .is_some_and(|(sharp, _)| *sharp <= SHARPER_MARGIN);
@@ -1063,6 +1054,14 @@ impl SlidingStep<'_> {
             Some((end, growth, None, _)) => Implicit::Taken(std::array::from_fn(|c| end[c]), growth),
         }
     }
+}
+
+/// What the limits take off the groups' sticking forces at a step's end, where its last
+/// evaluation was there, and whether every driven group there is in the mode deciding
+/// there finds ([`ends_decided`]).
+struct EndShaping {
+    changes: LimitChanges,
+    decided: bool,
 }
 
 /// `d rate_k / d b_m` of a driven group (through its sticking rates too, with their
@@ -1395,6 +1394,28 @@ impl<'s> DrivenGroups<'s> {
             }
         }
         all
+    }
+
+    /// [`quartic_estimate`] of an exprb42 substep with the linear part `linear` that ended
+    /// at `end` (its rates `end_rates`) with the remainders `D2` and `D3`, and the groups'
+    /// Jacobian there (the next substep's, where it is taken); `None` where a value is not
+    /// finite (the third-order estimate alone decides). (Inlined: its Jacobian is made
+    /// where it is kept, not copied out of a call.)
+    #[inline(always)]
+    fn quartic_estimate(
+        &self,
+        linear: &DrivenLinearPart,
+        (end, end_rates): (&Driven, &Driven),
+        remainders: &[Driven; 2],
+    ) -> Option<(Driven, [Slopes; MAX_BRANCHES])> {
+        let (end_inputs, _) = self.inputs(end);
+        let end_slopes = self.slopes(&end_inputs, end_rates);
+        let end_linear = self.linear_part(&end_slopes, linear.length(), linear.negligible());
+        let estimate = quartic_estimate((linear, &end_linear), (end, end_rates), remainders);
+        estimate
+            .iter()
+            .all(|v| v.is_finite())
+            .then_some((estimate, end_slopes))
     }
 
     /// `H J` of the groups and the `q`s over a substep of `length` ([`DrivenLinearPart`]).
