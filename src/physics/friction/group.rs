@@ -568,20 +568,24 @@ impl<'a> GroupInput<'a> {
         }
     }
 
-    /// [`GroupInput::evaluate`] of a damped group whose trial force `trial` (with its
-    /// utilisation, above 1) has its closest point `point` made already: the same values.
-    pub fn damped_evaluated(
-        &self,
-        sliding: bool,
-        trial: Members,
-        utilisation: f64,
-        point: &Members,
-    ) -> GroupOutput {
-        if sliding {
-            self.damped_sliding(*point, utilisation)
+    /// [`GroupInput::evaluate`] of a damped group of one member (a cascade's driver) in
+    /// mode `sliding`, or where that is `None`, in the mode deciding finds (sliding where
+    /// its sticking force is outside its limit, [`GroupInput::outside`], the same bits);
+    /// with that mode. Sliding, its force is on its limit on its trial force's side: a
+    /// one-member ellipse's closest point, exactly, with no projection to search.
+    #[inline]
+    pub fn evaluate_one_damped(&self, sliding: Option<bool>) -> (GroupOutput, bool) {
+        let trial = self.sticking_force();
+        let utilisation = self.utilisation(&trial);
+        let sliding = sliding.unwrap_or(utilisation > 1.0);
+        let output = if sliding {
+            let mut force = [0.0; MAX_MEMBERS];
+            force[0] = self.limit[0].copysign(trial[0]);
+            self.damped_sliding(force, utilisation)
         } else {
             self.damped_sticking(trial, utilisation)
-        }
+        };
+        (output, sliding)
     }
 
     /// Rates, forces and event value in the given mode.

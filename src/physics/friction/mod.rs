@@ -375,14 +375,22 @@ impl Friction {
     pub fn fastest_rate(&self, system: &StateSpace) -> f64 {
         let n = system.states;
         let a = &system.a;
-        let mut fastest = 0.0_f64;
+        // The pairs' squared frequencies compared before the one square root (a square
+        // root is monotone: the same value), by plain comparisons (NaN passed over).
+        let (mut diagonal, mut pair_squared) = (0.0_f64, 0.0_f64);
         for i in 0..n {
-            fastest = fastest.max(a[(i, i)].abs());
+            let rate = a[(i, i)].abs();
+            if rate > diagonal {
+                diagonal = rate;
+            }
             for j in 0..i {
-                fastest = fastest.max((a[(i, j)] * a[(j, i)]).abs().sqrt());
+                let squared = (a[(i, j)] * a[(j, i)]).abs();
+                if squared > pair_squared {
+                    pair_squared = squared;
+                }
             }
         }
-        fastest.max(self.fastest_slide_rate)
+        diagonal.max(pair_squared.sqrt()).max(self.fastest_slide_rate)
     }
 
     /// Off the ground for `relaxation_times` lift-off relaxation times: the offsets

@@ -17,9 +17,12 @@
 //!   linear, so a substep carries them exactly, as far as they move the groups
 //!   ([`DrivenLinearPart::size`]). Both methods evaluate the rates at the
 //!   substep's end, and that evaluation serves twice: as the next substep's start, and
-//!   at the step's end as the outputs' shaping, made from the end's states and branches
-//!   as the outputs are made on demand ([`super::SlidingStep::shaped_evaluation`]), so
-//!   that the outputs need no pass of their own and have the same bits.
+//!   at the step's end as the outputs' shaping. There it is made where the states and
+//!   offsets the step writes pack to again ([`SlidingStep::end_point`]), by the
+//!   cascade's own equations ([`SlidingStep::shaped_at`]), as the outputs of a cascade
+//!   are made on demand ([`SlidingStep::cascade_limit_changes`]): the outputs need no
+//!   pass of their own and have the same bits, and the modes it prepares for the next
+//!   step are those a step from a restored state decides.
 //!   - A slide in one direction (every group outside its ellipse has at most
 //!     [`ONE_DIRECTION_SHARE`] of its utilisation across it) turns its force so little
 //!     that exponential Euler is within the tolerance: one evaluation a substep, its
@@ -69,17 +72,17 @@ use super::exponential::{
     EXPRB42_MARGIN, Exprb42Substep, LinearPart, euler_within, exponential_euler, exprb42, largest_size,
     negligible_term, resize, resize_euler, resized,
 };
-use super::extrapolation::{Row, largest_of};
+use super::extrapolation::{Row, larger, largest_of};
 use super::implicit::{IMPLICIT_SEQUENCE, shifted_inverse};
-use super::modes::{LimitChanges, ShapedEnd, ShapedSlots};
+use super::modes::{LimitChanges, ShapedEnd};
 use super::{
     Events, Group, HighOrderSubsteps, Layout, MAX_BRANCHES, Modes, NO_EVENT, NOT_CARRIED, SIZE, STIFF_STEP,
     SliderState, SlidingStep, Slot, Vector,
 };
-use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::group::{
     GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
 };
+use crate::physics::friction::{Direction, EVENT_TOLERANCE};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateVector};
 
 /// The driven groups' vector: each group's members' deflections (one group a branch),
@@ -238,9 +241,22 @@ impl Cascade {
                 cascade.driven_count += 1;
             }
         }
+        // Driven group `n` is branch `n` of the same elements, member by member (as the
+        // slots are laid out: by group, then branch), so that summing member `m` group by
+        // group sums an element's branches in their order ([`SlidingStep::end_point`]).
+        let first = cascade.driven().next().map(|j| &slots[j].law);
+        let by_branch = cascade.driven_count == layout.branches
+            && cascade.driven().enumerate().all(|(n, j)| {
+                let law = &slots[j].law;
+                slots[j].branch == n
+                    && first.is_some_and(|first| {
+                        law.count == first.count
+                            && law.direction[..law.count] == first.direction[..first.count]
+                    })
+            });
         // The driven entries within the whole vector's count, which the extrapolation of a
         // stiff substep compares.
-        (cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
+        (by_branch && cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
             .then_some(cascade)
     }
 
@@ -267,6 +283,15 @@ struct DriverSum {
 }
 
 impl DriverSum {
+    /// The sum where the drivers' state is `start` and no time has passed: what a
+    /// cascade reads at given states ([`SlidingStep::shaped_at`]).
+    fn at(start: f64) -> Self {
+        DriverSum {
+            start,
+            ..DriverSum::default()
+        }
+    }
+
     /// The `q`s at `t` into the step: made with the drivers where the step ends.
     fn q(&self, t: f64) -> [f64; 2] {
         if t == self.step {
@@ -329,8 +354,8 @@ fn none_past(events: &Events) -> bool {
 /// tolerance past its event, still in its mode, where a step from a restored state,
 /// which decides its modes itself, would find the other (SPEC 7: it must go on the same
 /// way): such an end does not prepare its own modes for the next step; the outputs made
-/// from its states decide them there, as a restored state's step does (by the whole
-/// system's rates rather than the cascade's, which agree but within rounding of a limit).
+/// from its states decide them there, as a restored state's step does (from the same
+/// trial forces, the same bits).
 fn ends_decided(events: &Events) -> bool {
     events.iter().flatten().all(|&event| event < 0.0)
 }
@@ -418,7 +443,7 @@ fn q_at(mu: f64, t: f64) -> f64 {
 impl SlidingStep<'_> {
     /// The step of `h` seconds group by group (see the module's doc): with `x` and
     /// `sliders` at its end, and the outputs' shaping there where its last evaluation was
-    /// at its end, made as the outputs make it ([`SlidingStep::shaped_evaluation`],
+    /// at its end, made as the outputs make it ([`SlidingStep::shaped_at`],
     /// [`SlidingStep::shaped_end`]); `None` (both unchanged) where it is left to the
     /// whole-system path. A driver that changes mode within the step splits it there
     /// ([`DriverSwitch`]): the part before it in the modes of the start, the rest with
@@ -482,7 +507,8 @@ impl SlidingStep<'_> {
         let deciding = start == Start::Undecided;
         // The start, and where the drivers end as the loop below finds them (each writes
         // only its own entry, after reading it).
-        let mut end = self.layout.pack(x, sliders);
+        let mut end = [0.0; SIZE];
+        self.layout.pack_into(x, sliders, &mut end);
         // Deciding, every slot's mode is decided below (the cascade's slots are all), and
         // a group's branches that have no slot stick, as preparing leaves them.
         let mut modes = if deciding {
@@ -504,20 +530,21 @@ impl SlidingStep<'_> {
         // The inputs' part of each model state's rate, `(B u)_k`: every driver's branch reads
         // its element's, and each driven group's members read theirs.
         let drives = self.input_rates();
-        // The first driver to change mode within the part, if one does; and whether every
-        // driver ends in the mode deciding there finds ([`ends_decided`]).
+        // The first driver to change mode within the part, if one does.
         let mut first_switch: Option<DriverSwitch> = None;
-        let mut drivers_decided = true;
         for j in cascade.drivers() {
             let slot = &slots[j];
             let entry = slot.entries[0];
             let b0 = end[entry];
             let input = driver_input(slot, b0, drives[cascade.driver_state]);
-            if deciding {
-                modes[slot.group][slot.branch] = input.outside();
-            }
-            let sliding = modes[slot.group][slot.branch];
-            let start = input.evaluate(sliding);
+            let given = (!deciding).then_some(modes[slot.group][slot.branch]);
+            let (start, sliding) = if input.damped() {
+                input.evaluate_one_damped(given)
+            } else {
+                let sliding = given.unwrap_or_else(|| input.outside());
+                (input.evaluate(sliding), sliding)
+            };
+            modes[slot.group][slot.branch] = sliding;
             let mu = if sliding {
                 -slot.law.stiffness[0] / slot.law.damping[0]
             } else {
@@ -540,7 +567,6 @@ impl SlidingStep<'_> {
             // sliding force has (it is the trial's scaled onto the limit).
             let finish = driver_input(slot, end[entry], drives[cascade.driver_state]);
             let finish_event = finish.event(sliding);
-            drivers_decided &= finish_event < 0.0;
             let same_side = !sliding || start.force[0] * finish.sticking_force()[0] > 0.0;
             if !slot.law.damped() {
                 // A spring's event value is its outward cosine: sampled at the ends only,
@@ -575,9 +601,6 @@ impl SlidingStep<'_> {
         }
         // A mode no driver is in has `mu = 0`: `q(h) = h`.
         sum.end = q_end.map(|q| q.unwrap_or(h));
-        // Where the last substep's end was evaluated as the outputs are made: the states
-        // and branches there (written by that evaluation, not moved out of it).
-        let mut end_at = (StateVector::zeros(), SliderState::AT_REST);
         let mut groups = DrivenGroups::new(self, cascade, (modes, &drives), &sum);
         let w = groups.as_ref().map(|groups| groups.start(&end));
         if let (Some(groups), Some(w), true) = (groups.as_mut(), w, deciding) {
@@ -598,13 +621,7 @@ impl SlidingStep<'_> {
         let stiff = h * fastest > STIFF_STEP;
         let (driven, shaping) = match (groups.as_mut(), w) {
             (Some(groups), Some(w)) => {
-                let stepped = self.driven_step(
-                    cascade,
-                    groups,
-                    w,
-                    (&end, sliders, &mut end_at),
-                    (h, largest, stiff),
-                )?;
+                let stepped = self.driven_step(cascade, groups, w, &end, (h, largest, stiff))?;
                 // With the changes of mode the driven groups made on the way, and how fast
                 // the groups then slide, as preparing there would find it.
                 if groups.modes != modes {
@@ -616,46 +633,166 @@ impl SlidingStep<'_> {
             // No planar group has a member (no limit in either direction): nothing to step.
             _ => ([0.0; DRIVEN], None),
         };
-        match shaping {
-            Some(_) => (*x, *sliders) = end_at,
-            None => {
-                let start = *sliders;
-                self.whole_end(cascade, (&end, &modes, &start), &driven, (x, sliders));
-            }
-        }
+        self.whole_end(cascade, (&mut end, &modes), &driven, (x, sliders));
         // The end's shaping (and the step's modes, prepared for the next step) only where
         // every group is in the mode deciding there finds ([`ends_decided`]); otherwise the
         // outputs are made from the end's states, and the modes prepared are those decided
         // there.
-        Some(Part::Taken(
-            shaping
-                .filter(|shaping| shaping.decided && drivers_decided)
-                .and_then(|shaping| self.shaped_end(&modes, fastest, shaping.changes)),
-        ))
+        Some(Part::Taken(shaping.filter(|shaping| shaping.decided).and_then(
+            |shaping| self.shaped_end(&modes, fastest, shaping.changes),
+        )))
+    }
+
+    /// The outputs' shaping of the cascade at the coupled vector `z`, the groups in the
+    /// modes of `groups` and reading the drivers' state there: the driven groups' rates
+    /// (the `q`s' left for the caller) and event values, what the limits take off every
+    /// damped group's sticking force, and whether every driver is in the mode deciding
+    /// there finds. The same at a step's end as on demand
+    /// ([`SlidingStep::cascade_limit_changes`]): the same bits.
+    fn shaped_at(&self, cascade: &Cascade, groups: &DrivenGroups, at: &ShapingPoint) -> CascadeShaping {
+        let (rates, events, mut changes) = groups.evaluate_with_changes(&at.driven, at.driver_state);
+        let mut drivers_decided = true;
+        for j in cascade.drivers() {
+            let slot = &self.slots()[j];
+            let input = driver_input(slot, at.drivers[slot.branch], groups.driver_drive);
+            let trial = input.sticking_force();
+            let utilisation = input.utilisation(&trial);
+            let sliding = groups.modes[slot.group][slot.branch];
+            // Its event value below zero ([`GroupInput::event`]).
+            drivers_decided &= if sliding {
+                utilisation > 1.0
+            } else {
+                utilisation < 1.0
+            };
+            // A sliding driver's force is on its limit, on its trial force's side (a
+            // one-member ellipse's closest point).
+            if sliding && input.damped() {
+                changes[slot.law.direction[0]] += slot.law.limit[0].copysign(trial[0]) - trial[0];
+            }
+        }
+        CascadeShaping {
+            rates,
+            events,
+            changes,
+            drivers_decided,
+        }
+    }
+
+    /// The coupled vector `z` as [`SlidingStep::shaped_at`] reads it.
+    fn point_of(&self, cascade: &Cascade, groups: &DrivenGroups, z: &Vector) -> ShapingPoint {
+        let first = self.layout.sums[cascade.driver_state].first;
+        let mut drivers = [0.0; MAX_BRANCHES];
+        drivers.copy_from_slice(&z[first..first + MAX_BRANCHES]);
+        ShapingPoint {
+            driven: groups.start(z),
+            drivers,
+            driver_state: self.layout.model_state(z, cascade.driver_state),
+        }
+    }
+
+    /// Where a step ends at the driven vector `u`, the drivers' ends in `z`, as
+    /// [`SlidingStep::shaped_at`] reads the coupled vector its states and offsets pack to
+    /// ([`SlidingStep::whole_end`] then [`Layout::pack`]; [`SlidingStep::point_of`]), the
+    /// same bits: each branch deflection `U + (b - U)`, `U` its element's state, the
+    /// weighted sum of the branches in their order ([`Layout::model_states`]). Made from
+    /// the pieces (driven group `n` is the driven elements' branch `n`, [`Cascade::of`]):
+    /// a vector written entry by entry and read again at once stalls on its stores.
+    fn end_point(
+        &self,
+        cascade: &Cascade,
+        groups: &DrivenGroups,
+        (z, u): (&Vector, &Driven),
+    ) -> ShapingPoint {
+        let weights = &self.layout.weights;
+        // Member `m` of every group is a branch of one element: its state is the sum over
+        // the groups, in the order of the branches (past them, weight and entry are zero:
+        // they add nothing). Summed over fixed lengths, in registers.
+        let mut states = [0.0; MAX_MEMBERS];
+        for n in 0..MAX_BRANCHES {
+            for m in 0..MAX_MEMBERS {
+                states[m] += weights[n] * u[entry(n, m)];
+            }
+        }
+        let members = groups.slots[0].law.count;
+        let mut driven = [0.0; DRIVEN];
+        for n in 0..groups.count {
+            // The pair whole (a missing member's zero), as the groups read it.
+            let mut pair = [0.0; MAX_MEMBERS];
+            for m in 0..MAX_MEMBERS {
+                if m < members {
+                    pair[m] = states[m] + (u[entry(n, m)] - states[m]);
+                }
+            }
+            driven[entry(n, 0)..entry(n, MAX_MEMBERS)].copy_from_slice(&pair);
+        }
+        let first = self.layout.sums[cascade.driver_state].first;
+        let entries = &z[first..first + MAX_BRANCHES];
+        let state = self.layout.model_state(z, cascade.driver_state);
+        let mut drivers = [0.0; MAX_BRANCHES];
+        let mut driver_state = 0.0;
+        for i in 0..MAX_BRANCHES {
+            if i < self.layout.branches {
+                drivers[i] = state + (entries[i] - state);
+            }
+            driver_state += weights[i] * drivers[i];
+        }
+        ShapingPoint {
+            driven,
+            drivers,
+            driver_state,
+        }
+    }
+
+    /// What the damped groups' limits take off their sticking forces at the coupled vector
+    /// `z` where the slots form a cascade (and the step suits it, [`SlidingStep::cascade`]),
+    /// by the cascade's own equations ([`SlidingStep::shaped_at`], as a step's end is
+    /// shaped), with each group's mode as deciding there finds it; `None` where there is
+    /// no driven group.
+    pub(super) fn cascade_limit_changes(
+        &self,
+        cascade: &Cascade,
+        z: &Vector,
+    ) -> Option<(LimitChanges, Modes)> {
+        let drives = self.input_rates();
+        let drive = drives[cascade.driver_state];
+        let mut modes = [[false; MAX_BRANCHES]; Group::COUNT];
+        for j in cascade.drivers() {
+            let slot = &self.slots()[j];
+            modes[slot.group][slot.branch] = driver_input(slot, z[slot.entries[0]], drive).outside();
+        }
+        let sum = DriverSum::at(self.layout.model_state(z, cascade.driver_state));
+        let mut groups = DrivenGroups::new(self, cascade, (modes, &drives), &sum)?;
+        groups.decide(&groups.start(z));
+        let shaping = self.shaped_at(cascade, &groups, &self.point_of(cascade, &groups, z));
+        Some((shaping.changes, groups.modes))
     }
 
     /// The states and branches at the end `driven` of the driven groups, with the
-    /// drivers' ends in `end` and the modes `modes` (the offsets of `sliders` replaced),
-    /// written to `x` and `end_sliders` (where they are kept: made and then moved there,
-    /// they were copied by a call).
+    /// drivers' ends in `end` (which takes the driven groups' too), in the modes `modes`,
+    /// written to `x` and `sliders` (in place: copies of either cost a call each).
     fn whole_end(
         &self,
         cascade: &Cascade,
-        (end, modes, sliders): (&Vector, &Modes, &SliderState),
+        (end, modes): (&mut Vector, &Modes),
         driven: &Driven,
-        (x, end_sliders): (&mut StateVector, &mut SliderState),
+        (x, sliders): (&mut StateVector, &mut SliderState),
     ) {
-        let mut end = *end;
+        self.set_driven_end(cascade, (end, modes), driven);
+        *x = self.layout.unpack(end, sliders);
+        sliders.sliding = *modes;
+    }
+
+    /// Writes the end `driven` of the driven groups into the coupled vector `end`, in the
+    /// modes `modes` ([`SlidingStep::whole_end`] unpacks it).
+    #[inline(always)]
+    fn set_driven_end(&self, cascade: &Cascade, (end, modes): (&mut Vector, &Modes), driven: &Driven) {
         for (n, j) in cascade.driven().enumerate() {
             let slot = &self.slots()[j];
             for m in slot.law.members() {
                 end[slot.entries[m]] = driven[entry(n, m)];
             }
         }
-        self.hold_on_limits(&mut end, modes);
-        *end_sliders = *sliders;
-        *x = self.layout.unpack(&end, end_sliders);
-        end_sliders.sliding = *modes;
+        self.hold_on_limits(end, modes);
     }
 
     /// Whether the model's elements form a cascade and the step suits it
@@ -666,7 +803,7 @@ impl SlidingStep<'_> {
 
     /// The cascade of this step's slots, if they form one ([`Cascade::of`]) and the step
     /// suits it: held inputs.
-    fn cascade(&self) -> Option<&Cascade> {
+    pub(super) fn cascade(&self) -> Option<&Cascade> {
         if self.input_rates != DrivingVector::zeros() {
             return None;
         }
@@ -693,14 +830,14 @@ impl SlidingStep<'_> {
     /// it, a stiff substep nears an event, or they need more than [`MAX_SUBSTEPS`]. With
     /// the end, what the limits take off the groups' sticking forces there where the last
     /// substep's end was evaluated as the outputs are made (an explicit substep's,
-    /// [`SlidingStep::shaped_evaluation`]), its states and branches then written to
-    /// `end_at`.
+    /// [`SlidingStep::shaped_at`]), and whether every driver ends in the mode deciding
+    /// there finds.
     fn driven_step(
         &self,
         cascade: &Cascade,
         groups: &mut DrivenGroups,
         mut w: Driven,
-        (z, sliders, end_at): (&Vector, &SliderState, &mut (StateVector, SliderState)),
+        z: &Vector,
         (h, largest, stiff): (f64, f64, bool),
     ) -> Option<(Driven, Option<EndShaping>)> {
         // The explicit substeps stay as short as the whole system's exponential ones, so
@@ -750,8 +887,11 @@ impl SlidingStep<'_> {
             if t >= h {
                 // An explicit substep's end was evaluated, its events followed there.
                 if kept {
-                    let decided = ends_decided(&end_events);
-                    return Some((w, changes.map(|changes| EndShaping { changes, decided })));
+                    let shaping = changes.map(|(changes, drivers_decided)| EndShaping {
+                        changes,
+                        decided: drivers_decided && ends_decided(&end_events),
+                    });
+                    return Some((w, shaping));
                 }
                 return all_clear(&groups.events(&w)).then_some((w, None));
             }
@@ -810,20 +950,21 @@ impl SlidingStep<'_> {
                 // outputs are made, so that they come from this evaluation.
                 let last = t + length >= h;
                 let mut end_changes = None;
-                let mut end_evaluation =
-                    |u: &Driven, (rates, events): (&mut Driven, &mut Events), made: &mut Option<_>| {
-                        if !last {
-                            (*rates, *events) = groups.evaluate(u);
-                            return;
-                        }
-                        let (x, end_sliders) = &mut *end_at;
-                        self.whole_end(cascade, (z, &groups.modes, sliders), u, (x, end_sliders));
-                        let (x, sliders) = &*end_at;
-                        (*rates, *events) = self.shaped_evaluation(x, sliders, |slots, changes| {
-                            *made = Some(changes);
-                            groups.laid_out(cascade, slots, u)
-                        });
-                    };
+                let shapes = last && self.cascade_decides();
+                let end_evaluation = |u: &Driven,
+                                      (rates, events): (&mut Driven, &mut Events),
+                                      made: &mut Option<_>| {
+                    if !shapes {
+                        (*rates, *events) = groups.evaluate(u);
+                        return;
+                    }
+                    // As the states and branches there pack again.
+                    let shaped = self.shaped_at(cascade, groups, &self.end_point(cascade, groups, (z, u)));
+                    (*rates, *events) = (shaped.rates, shaped.events);
+                    // The `q`s' rates where they are (the shaping reads them at zero).
+                    rates[Q[0]..=Q[1]].copy_from_slice(&groups.q_rates(u));
+                    *made = Some((shaped.changes, shaped.drivers_decided));
+                };
                 let mut course = None;
                 if euler_may_do && in_one_direction(&inputs[..groups.count()]) {
                     let mut middle_events = events;
@@ -1064,6 +1205,22 @@ struct EndShaping {
     decided: bool,
 }
 
+/// Where [`SlidingStep::shaped_at`] shapes: the driven vector (the `q`s zero), the drivers'
+/// deflections by branch, and the drivers' state, the weighted sum of those.
+struct ShapingPoint {
+    driven: Driven,
+    drivers: [f64; MAX_BRANCHES],
+    driver_state: f64,
+}
+
+/// The outputs' shaping of a cascade at given states ([`SlidingStep::shaped_at`]).
+struct CascadeShaping {
+    rates: Driven,
+    events: Events,
+    changes: LimitChanges,
+    drivers_decided: bool,
+}
+
 /// `d rate_k / d b_m` of a driven group (through its sticking rates too, with their
 /// relaxation), by row `k`, and `d rate_k / d X` of the drivers' state, by member.
 #[derive(Clone, Copy, Debug, Default)]
@@ -1132,6 +1289,8 @@ struct DrivenGroups<'s> {
     drive: [Members; MAX_BRANCHES],
     coupling: [Members; MAX_BRANCHES],
     sum: &'s DriverSum,
+    /// The inputs' part of the drivers' state's rate.
+    driver_drive: f64,
 }
 
 impl<'s> DrivenGroups<'s> {
@@ -1151,6 +1310,7 @@ impl<'s> DrivenGroups<'s> {
             drive: [[0.0; MAX_MEMBERS]; MAX_BRANCHES],
             coupling: [[0.0; MAX_MEMBERS]; MAX_BRANCHES],
             sum,
+            driver_drive: drives[cascade.driver_state],
         };
         for (n, j) in cascade.driven().enumerate() {
             let slot = &all[j];
@@ -1170,6 +1330,7 @@ impl<'s> DrivenGroups<'s> {
 
     /// The driven vector at the step's start `z`: each group's pair whole (a missing
     /// member's zero), as its evaluation reads it, and the `q`s zero.
+    #[inline(always)]
     fn start(&self, z: &Vector) -> Driven {
         let mut w = [0.0; DRIVEN];
         for (n, slot) in self.slots().enumerate() {
@@ -1201,7 +1362,12 @@ impl<'s> DrivenGroups<'s> {
     #[inline(always)]
     fn inputs(&self, w: &Driven) -> ([GroupInput<'s>; MAX_BRANCHES], [bool; MAX_BRANCHES]) {
         let sum = self.sum;
-        let driver = sum.start + sum.by_mode[0] * w[Q[0]] + sum.by_mode[1] * w[Q[1]];
+        self.inputs_with(w, sum.start + sum.by_mode[0] * w[Q[0]] + sum.by_mode[1] * w[Q[1]])
+    }
+
+    /// [`DrivenGroups::inputs`] with the drivers' state `driver`.
+    #[inline(always)]
+    fn inputs_with(&self, w: &Driven, driver: f64) -> ([GroupInput<'s>; MAX_BRANCHES], [bool; MAX_BRANCHES]) {
         let mut inputs = [GroupInput::default(); MAX_BRANCHES];
         let mut sliding = [false; MAX_BRANCHES];
         for (n, slot) in self.slots().enumerate() {
@@ -1248,9 +1414,43 @@ impl<'s> DrivenGroups<'s> {
         (inputs, sliding): (&[GroupInput; MAX_BRANCHES], &[bool; MAX_BRANCHES]),
     ) -> (Driven, Events) {
         let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
+        self.outputs_into((inputs, sliding), &mut outputs);
+        self.laid_out_from(w, |n| outputs[n])
+    }
+
+    /// [`DrivenGroups::evaluate`] at the step's end `w`, and what the limits take off
+    /// the driven groups' sticking forces there, by direction: each sliding group's force
+    /// (the closest point of its ellipse) less its trial force. (A damped group's: where
+    /// the step's end shapes the outputs, every group is one.)
+    fn evaluate_with_changes(&self, w: &Driven, driver: f64) -> (Driven, Events, LimitChanges) {
+        let (inputs, sliding) = self.inputs_with(w, driver);
+        let mut outputs = [GroupOutput::default(); MAX_BRANCHES];
+        self.outputs_into((&inputs, &sliding), &mut outputs);
+        let mut changes = [0.0; Direction::COUNT];
+        for n in 0..self.count {
+            let input = &inputs[n];
+            if sliding[n] && input.damped() {
+                let trial = input.sticking_force();
+                for m in input.members() {
+                    changes[input.direction[m]] += outputs[n].force[m] - trial[m];
+                }
+            }
+        }
+        let (rates, events) = self.laid_out_from(w, |n| outputs[n]);
+        (rates, events, changes)
+    }
+
+    /// Every driven group's [`GroupInput::evaluate`] in its mode into `outputs`, side by
+    /// side (their projections' Newton steps overlap). (Written where they are kept: an
+    /// array returned is copied by a call.)
+    #[inline(always)]
+    fn outputs_into(
+        &self,
+        (inputs, sliding): (&[GroupInput; MAX_BRANCHES], &[bool; MAX_BRANCHES]),
+        outputs: &mut [GroupOutput; MAX_BRANCHES],
+    ) {
         let count = self.count;
         evaluate_together::<MAX_BRANCHES>(&inputs[..count], &sliding[..count], &mut outputs[..count]);
-        self.laid_out_from(w, |n| outputs[n])
     }
 
     /// The driven groups' rates and event values at `w` laid out from each group's
@@ -1361,19 +1561,6 @@ impl<'s> DrivenGroups<'s> {
         [1.0 + rate[0] * w[Q[0]], 1.0 + rate[1] * w[Q[1]]]
     }
 
-    /// [`DrivenGroups::evaluate`] at the driven vector `w` from every slot there as
-    /// [`SlidingStep::shaped_evaluation`] found it: the driven groups' rates and event
-    /// values laid out as it lays them out.
-    fn laid_out(&self, cascade: &Cascade, shaped: &ShapedSlots, w: &Driven) -> (Driven, Events) {
-        self.laid_out_from(w, |n| {
-            let slot = self.slots[n];
-            shaped.output(
-                usize::from(cascade.driven[n]),
-                self.modes[slot.group][slot.branch],
-            )
-        })
-    }
-
     /// Each group's [`Slopes`] at its `inputs` there, whose rates are `rates`
     /// ([`GroupInput::rate_slopes`]).
     fn slopes(&self, inputs: &[GroupInput; MAX_BRANCHES], rates: &Driven) -> [Slopes; MAX_BRANCHES] {
@@ -1437,7 +1624,7 @@ impl<'s> DrivenGroups<'s> {
                 for mode in 0..2 {
                     let by_q = length * slopes[n].by_driver[k] * self.sum.by_mode[mode];
                     linear.by_q[n][mode][k] = by_q;
-                    linear.q_weights[mode] = linear.q_weights[mode].max(by_q.abs());
+                    linear.q_weights[mode] = larger(linear.q_weights[mode], by_q.abs());
                 }
             }
         }
@@ -1517,7 +1704,7 @@ impl LinearPart<DRIVEN> for DrivenLinearPart {
         let deflections: &[f64; DRIVEN - 2] = v[..DRIVEN - 2].try_into().expect("the groups' entries");
         let deflections = largest_size(deflections);
         let q = [0, 1].map(|mode| self.q_weights[mode] * v[Q[mode]].abs());
-        deflections.max(q[0]).max(q[1])
+        larger(larger(deflections, q[0]), q[1])
     }
 }
 
@@ -1601,6 +1788,47 @@ mod tests {
                 );
             }
             Ok(())
+            })?;
+        }
+
+        /// The point a step's end is shaped at ([`SlidingStep::end_point`], made from its
+        /// pieces) is, bit for bit, where the states and offsets the step writes there pack
+        /// to again ([`SlidingStep::point_of`]), as the outputs are made on demand: DDT with
+        /// either law, sliding laterally or in both directions, the driven groups anywhere
+        /// within twice the elastic travel of their start.
+        #[test]
+        fn a_steps_end_is_shaped_where_its_states_and_offsets_pack_to(
+            law in prop::sample::select(vec![FrictionLaw::Coulomb, FrictionLaw::Brush]),
+            combined in any::<bool>(),
+            vx in -20.0..20.0f64,
+            inputs in prop::array::uniform3(-1.0..1.0f64),
+            states in prop::array::uniform3(-1.5..1.5f64),
+            moves in prop::array::uniform8(-2.0..2.0f64),
+        ) {
+            let p = super::super::slide_parameters(ModelKind::Ddt, law, combined);
+            let load = p.get(Parameter::NominalLoad);
+            with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
+                let cascade = step.cascade().expect("DDT's slots form a cascade");
+                let z = step.layout.pack(&x, &sliders);
+                let drives = step.input_rates();
+                let sum = super::DriverSum::at(step.layout.model_state(&z, cascade.driver_state));
+                let groups = super::DrivenGroups::new(step, cascade, (sliders.sliding, &drives), &sum)
+                    .expect("driven groups");
+                let mut u = groups.start(&z);
+                for (n, slot) in groups.slots().enumerate() {
+                    for m in slot.law.members() {
+                        u[super::entry(n, m)] += moves[super::entry(n, m)] * travel;
+                    }
+                }
+                let made = step.end_point(cascade, &groups, (&z, &u));
+                let (mut end, mut x_end, mut sliders_end) = (z, x, sliders);
+                step.whole_end(cascade, (&mut end, &sliders.sliding), &u, (&mut x_end, &mut sliders_end));
+                let packed = step.point_of(cascade, &groups, &step.layout.pack(&x_end, &sliders_end));
+                let bits = |values: &[f64]| values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                prop_assert_eq!(bits(&made.driven), bits(&packed.driven));
+                prop_assert_eq!(bits(&made.drivers[..step.layout.branches]), bits(&packed.drivers[..step.layout.branches]));
+                prop_assert_eq!(made.driver_state.to_bits(), packed.driver_state.to_bits());
+                Ok(())
             })?;
         }
     }

@@ -510,7 +510,7 @@ impl SlidingStep<'_> {
         let floor = ROUNDING * largest_of(&z[..size]);
         let (mut fifth_size, mut third_size) = (0.0, 0.0);
         for c in 0..size {
-            let allowed = TOLERANCE * (self.scale + z[c].abs().max(end[c].abs())) + floor;
+            let allowed = TOLERANCE * (self.scale + larger(z[c].abs(), end[c].abs())) + floor;
             fifth_size = larger(fifth_size, (length * fifth[c]).abs() / allowed);
             third_size = larger(third_size, (length * third[c]).abs() / allowed);
         }

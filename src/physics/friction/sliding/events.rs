@@ -2,7 +2,7 @@
 //! falsi, Illinois), and whether a limit is touched and left again between samples (a
 //! parabola through three samples, then a golden-section search on the accurate solution).
 
-use super::{Events, Modes, NO_EVENT, NotConverged, SIZE, SlidingStep, Vector};
+use super::{Events, Modes, NO_EVENT, NotConverged, SIZE, SlidingStep, Vector, made_whole};
 use crate::physics::friction::EVENT_TOLERANCE;
 use crate::physics::friction::{Group, MAX_BRANCHES};
 
@@ -36,10 +36,25 @@ const STAGE_REACH: f64 = 1e-3;
 /// polynomial is to be ([`SlidingStep::short_step`]): its rate of change is an estimate.
 const TAYLOR_MARGIN: f64 = 4.0;
 
-/// Every group and branch of a friction with `branches` branches.
+/// Every group and branch of a friction with `branches` branches, group by group. (From a
+/// table: a nested range's `any` and `find` were a call each, several a substep.)
 fn candidates(branches: usize) -> impl Iterator<Item = (usize, usize)> {
-    (0..Group::COUNT).flat_map(move |g| (0..branches).map(move |i| (g, i)))
+    EVERY_GROUP_AND_BRANCH
+        .iter()
+        .copied()
+        .filter(move |&(_, i)| i < branches)
 }
+
+/// Every group and branch there can be, group by group.
+static EVERY_GROUP_AND_BRANCH: [(usize, usize); Group::COUNT * MAX_BRANCHES] = {
+    let mut all = [(0, 0); Group::COUNT * MAX_BRANCHES];
+    let mut k = 0;
+    while k < all.len() {
+        all[k] = (k / MAX_BRANCHES, k % MAX_BRANCHES);
+        k += 1;
+    }
+    all
+};
 /// How often a group may change mode at one instant before its events wait for time to
 /// move on (a motion exactly along the limit, where rounding decides).
 pub(super) const MAX_CHANGES_AT_AN_INSTANT: u32 = 3;
@@ -451,7 +466,9 @@ impl SlidingStep<'_> {
     /// to second order, with no evaluation, where even the second-order term is a
     /// fraction of the tolerance (so that neither its estimate nor the terms past it
     /// matter). Otherwise by Heun's method, if its difference from Euler's (the error of
-    /// the cruder) is within the tolerance.
+    /// the cruder) is within the tolerance. (Inlined: the step returned was copied out by a
+    /// call, and again by its caller's.)
+    #[inline(always)]
     fn short_step(
         &self,
         t: f64,
@@ -462,20 +479,14 @@ impl SlidingStep<'_> {
     ) -> Option<Vector> {
         let size = self.size();
         let euler = self.advanced(z, rates, dt);
-        let mut taylor = euler;
-        for c in 0..size {
-            taylor[c] += 0.5 * dt * dt * rate_change[c];
-        }
+        let taylor = made_whole(|c| euler[c] + 0.5 * dt * dt * rate_change[c]);
         if TAYLOR_MARGIN * self.error_ratio(z, &taylor, &euler) <= 1.0
             && taylor[..size].iter().all(|v| v.is_finite())
         {
             return Some(taylor);
         }
         let (end_rates, _) = self.rates(t + dt, &euler, modes);
-        let mut heun = *z;
-        for c in 0..size {
-            heun[c] += 0.5 * dt * (rates[c] + end_rates[c]);
-        }
+        let heun = made_whole(|c| z[c] + 0.5 * dt * (rates[c] + end_rates[c]));
         (self.error_ratio(z, &heun, &euler) <= 1.0).then_some(heun)
     }
 

@@ -383,6 +383,7 @@ fn phi(k: usize, j: usize) -> f64 {
 
 /// `phi1(X) f(z)`, and the stage a fraction `c` of the substep on, `z + c H phi1(c X)
 /// f(z)`, from one series (`powers` holds `c^j`).
+#[inline(always)]
 fn whole_and_stage<const E: usize>(
     linear: &impl LinearPart<E>,
     z: &[f64; E],

@@ -12,7 +12,7 @@ use super::dormand_prince::{HighOrder, reach};
 use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
-use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, retry_shorter};
+use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, made_whole, retry_shorter};
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -270,15 +270,10 @@ impl SlidingStep<'_> {
         self.rates_into(t + 0.5 * length, &middle, modes, &mut middle_made);
         let (middle_rates, middle_events) = &middle_made;
         search.sample(1, 0.5 * length, middle_events);
-        let mut end = *z;
-        for c in 0..size {
-            end[c] += length * (2.0 * middle_rates[c] - start_rates[c]);
-        }
+        let end = made_whole(|c| z[c] + length * (2.0 * middle_rates[c] - start_rates[c]));
         let (end_rates, end_events) = self.rates(t + length, &end, modes);
-        let mut third = *z;
-        for c in 0..size {
-            third[c] += length * (start_rates[c] + 4.0 * middle_rates[c] + end_rates[c]) / 6.0;
-        }
+        let third =
+            made_whole(|c| z[c] + length * (start_rates[c] + 4.0 * middle_rates[c] + end_rates[c]) / 6.0);
         let second = self.advanced(z, middle_rates, length);
         let error = self.error_ratio(z, &third, &second);
         let accurate = error <= 1.0 && third[..size].iter().all(|v| v.is_finite());
@@ -353,7 +348,7 @@ impl SlidingStep<'_> {
         (0..z.len())
             .map(|c| {
                 (best[c] - previous[c]).abs()
-                    / (TOLERANCE * (self.scale + z[c].abs().max(best[c].abs())) + floor)
+                    / (TOLERANCE * (self.scale + larger(z[c].abs(), best[c].abs())) + floor)
             })
             .fold(0.0, larger)
     }

@@ -8,7 +8,6 @@ use super::super::group::{GroupInput, GroupLaw, MAX_MEMBERS, Members};
 use super::super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use super::cascade::Cascade;
 use super::{Modes, SIZE, Vector};
-use crate::physics::brush::Branch;
 use crate::physics::state_space::{MAX_STATES, StateSpace, StateVector, by_state_count};
 
 /// Where each quantity of a step sits in the coupled vector: first the model's states
@@ -44,6 +43,20 @@ pub(super) struct Layout {
 pub(super) struct StateSum {
     pub(super) first: usize,
     pub(super) weights: [f64; MAX_BRANCHES],
+}
+
+impl StateSum {
+    /// The sum in `z`.
+    #[inline(always)]
+    fn of(&self, z: &Vector) -> f64 {
+        // One bounds check for the terms, not one a term.
+        let terms = &z[self.first..self.first + MAX_BRANCHES];
+        let mut sum = 0.0;
+        for i in 0..MAX_BRANCHES {
+            sum += self.weights[i] * terms[i];
+        }
+        sum
+    }
 }
 
 /// Where a present element's branches are: its direction, its model state and its first
@@ -124,15 +137,7 @@ impl Layout {
     #[inline]
     pub(super) fn model_states_for<const N: usize>(&self, z: &Vector) -> StateVector {
         let mut x = StateVector::zeros();
-        let sum = |s: &StateSum| {
-            // One bounds check for the terms, not one a term.
-            let terms = &z[s.first..s.first + MAX_BRANCHES];
-            let mut sum = 0.0;
-            for i in 0..MAX_BRANCHES {
-                sum += s.weights[i] * terms[i];
-            }
-            sum
-        };
+        let sum = |s: &StateSum| s.of(z);
         let pairs = N.div_ceil(2);
         for (pair, sums) in x
             .as_mut_slice()
@@ -143,6 +148,13 @@ impl Layout {
             pair.copy_from_slice(&[sum(&sums[0]), sum(&sums[1])]);
         }
         x
+    }
+
+    /// Model state `k` of a coupled vector: [`Layout::model_states`]' entry `k`, the same
+    /// bits.
+    #[inline]
+    pub(super) fn model_state(&self, z: &Vector, k: usize) -> f64 {
+        self.sums[k].of(z)
     }
 
     /// By entry, the model state it makes and its weight there: 1 for a free state, `w_i`
@@ -166,6 +178,14 @@ impl Layout {
     #[inline(always)]
     pub(super) fn pack(&self, x: &StateVector, sliders: &SliderState) -> Vector {
         let mut z = [0.0; SIZE];
+        self.pack_into(x, sliders, &mut z);
+        z
+    }
+
+    /// [`Layout::pack`] into `z`, whose entries past the layout's are zero (made where it
+    /// is kept: a vector returned is copied by a call).
+    #[inline(always)]
+    pub(super) fn pack_into(&self, x: &StateVector, sliders: &SliderState, z: &mut Vector) {
         for j in 0..self.free_count {
             z[j] = x[self.free[j]];
         }
@@ -184,7 +204,6 @@ impl Layout {
                 }
             }
         }
-        z
     }
 
     /// The model's states and the branch offsets of `z` (linear: also rates from rates).
@@ -211,6 +230,11 @@ pub(super) struct Slot {
     pub(super) states: [usize; MAX_MEMBERS],
     /// Each member's relaxation rate, the diagonal entry of its element's state.
     pub(super) relaxation: [f64; MAX_MEMBERS],
+    /// Its branch's share of each direction's limit, `phi_i`, and `1 / phi_i`: a step's
+    /// member limits are `phi_i Fmax` and their reciprocals `(1 / phi_i) (1 / Fmax)`, so
+    /// that a refresh divides once a direction, not once a member.
+    pub(super) limit_fraction: f64,
+    pub(super) inverse_limit_fraction: f64,
 }
 
 impl Slot {
@@ -270,34 +294,6 @@ pub struct SlidingSlots {
     pub(super) cascade: Option<Cascade>,
 }
 
-/// The reciprocals of a step's branch limits `phi_i Fmax`, made as `(1 / phi_i) (1 / Fmax)`:
-/// seven divisions for DDT's sixteen members, every step the load moves the limits.
-struct BranchLimits {
-    inverse_fraction: [f64; MAX_BRANCHES],
-    inverse_limit: [f64; Direction::COUNT],
-}
-
-impl BranchLimits {
-    fn new(branches: &[Branch], limits: &Limits) -> Self {
-        let mut inverse_fraction = [0.0; MAX_BRANCHES];
-        for (inverse, branch) in inverse_fraction.iter_mut().zip(branches) {
-            *inverse = branch.limit_fraction.recip();
-        }
-        BranchLimits {
-            inverse_fraction,
-            inverse_limit: limits.0.map(f64::recip),
-        }
-    }
-
-    /// Branch `i`'s limit in direction `d`, and its reciprocal.
-    fn of(&self, branches: &[Branch], i: usize, d: usize, limits: &Limits) -> (f64, f64) {
-        (
-            branches[i].limit_fraction * limits.0[d],
-            self.inverse_fraction[i] * self.inverse_limit[d],
-        )
-    }
-}
-
 /// Whether `a` and `b` hold the same bits: one pass without a branch (an array
 /// comparison is a call to `memcmp`, which stalls on the stores just made).
 fn same_bits(a: &[u64], b: &[u64]) -> bool {
@@ -337,15 +333,17 @@ impl Friction {
     /// The slots' limits and relaxation rates at `limits` and `system`, their members
     /// kept (as [`Friction::fill_sliding_slots`] makes them).
     pub(super) fn refresh_sliding_slots(&mut self, system: &StateSpace, limits: &Limits) {
-        let inverse = BranchLimits::new(self.branches, limits);
+        let inverse_limits = limits.0.map(f64::recip);
         let laid_out = &mut self.sliding_slots;
         for slot in &mut laid_out.slots[..laid_out.count] {
             for m in slot.law.members() {
-                let state = slot.states[m];
+                let (state, d) = (slot.states[m], slot.law.direction[m]);
                 slot.relaxation[m] = system.a[(state, state)];
-                let (limit, inverse_limit) =
-                    inverse.of(self.branches, slot.branch, slot.law.direction[m], limits);
-                slot.law.set_limit_and_inverse(m, limit, inverse_limit);
+                slot.law.set_limit_and_inverse(
+                    m,
+                    slot.limit_fraction * limits.0[d],
+                    slot.inverse_limit_fraction * inverse_limits[d],
+                );
             }
         }
     }
@@ -362,6 +360,8 @@ impl Friction {
                 *slot = Slot {
                     group: group as usize,
                     branch: i,
+                    limit_fraction: branch.limit_fraction,
+                    inverse_limit_fraction: branch.limit_fraction.recip(),
                     ..Slot::default()
                 };
                 for &direction in group.directions() {

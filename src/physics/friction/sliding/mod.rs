@@ -199,6 +199,19 @@ pub struct SlidingStep<'a> {
     start_sliding_rate: Cell<f64>,
 }
 
+/// The coupled vector whose entry `c` is `entry(c)`, every entry: a sum of vectors over
+/// the entries in use leaves those past them zero (each vector's are), so they are
+/// summed whole, not copied from one and then added to entry by entry (a copy of a whole
+/// vector is a call, and the stores one by one after it stall the next wide read).
+#[inline(always)]
+pub(super) fn made_whole(entry: impl Fn(usize) -> f64) -> Vector {
+    let mut made = [0.0; SIZE];
+    for (c, value) in made.iter_mut().enumerate() {
+        *value = entry(c);
+    }
+    made
+}
+
 /// A substep by a method that came back too long (`misses` in a row before it, kept in
 /// the step): the factor to try it again by, shorter; after the second miss in a row
 /// the method is `declined` for the rest of the step and `None`.
@@ -258,14 +271,9 @@ impl<'a> SlidingStep<'a> {
         self.layout.size
     }
 
-    /// `z + dt * rates` over the entries in use: an explicit Euler step, or a stage's
-    /// state.
+    /// `z + dt * rates`: an explicit Euler step, or a stage's state.
     fn advanced(&self, z: &Vector, rates: &Vector, dt: f64) -> Vector {
-        let mut moved = *z;
-        for c in 0..self.size() {
-            moved[c] += dt * rates[c];
-        }
-        moved
+        made_whole(|c| z[c] + dt * rates[c])
     }
 
     fn slots(&self) -> &'a [Slot] {
@@ -415,6 +423,9 @@ impl<'a> SlidingStep<'a> {
 
     /// Puts each sliding spring group back on its ellipse (it drifts by rounding).
     fn hold_on_limits(&self, z: &mut Vector, modes: &Modes) {
+        if self.all_damped {
+            return;
+        }
         for slot in self.slots() {
             if !modes[slot.group][slot.branch] || slot.law.damped() {
                 continue;
@@ -501,7 +512,8 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
         h: f64,
     ) -> Result<(), NotConverged> {
-        let mut z = self.layout.pack(x, sliders);
+        let mut z = [0.0; SIZE];
+        self.layout.pack_into(x, sliders, &mut z);
         let mut modes = sliders.sliding;
         let mut t = 0.0;
         // The midpoint rule's parasitic solution grows where a substep of the finest row

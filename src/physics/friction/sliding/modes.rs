@@ -4,11 +4,9 @@
 //! for the outputs; and the rates and event values (guards) of the states in their modes,
 //! which Model Exchange exposes.
 
-use super::super::group::{
-    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, closest_points_where,
-};
+use super::super::group::{GroupInput, GroupLaw, MAX_MEMBERS, MAX_TOGETHER, closest_points_where};
 use super::super::{Direction, EVENT_TOLERANCE, Group, MAX_BRANCHES, SliderState};
-use super::{Events, Modes, SlidingStep};
+use super::{Events, Modes, SIZE, SlidingStep};
 use crate::physics::state_space::StateVector;
 
 /// What deciding the modes at a step's start found.
@@ -111,13 +109,7 @@ impl<'a> SlidingStep<'a> {
         sliders: &mut SliderState,
     ) -> ([f64; Direction::COUNT], Option<Preparation>) {
         if self.cascade_decides() {
-            let (changes, sliding) = self.shaped_evaluation(x, sliders, |slots, changes| {
-                let mut sliding = [[false; MAX_BRANCHES]; Group::COUNT];
-                for (j, slot) in self.slots().iter().enumerate() {
-                    sliding[slot.group][slot.branch] = slots.outside[j];
-                }
-                (changes, sliding)
-            });
+            let (changes, sliding) = self.limit_changes(x, sliders);
             let preparation = Preparation {
                 sliding,
                 sliding_rate: self.fastest_sliding_rate(&sliding),
@@ -154,7 +146,8 @@ impl<'a> SlidingStep<'a> {
         pushed_out_slides: bool,
     ) -> Decided {
         let layout = &self.layout;
-        let mut z = layout.pack(x, sliders);
+        let mut z = [0.0; SIZE];
+        layout.pack_into(x, sliders, &mut z);
         let mut inside = true;
         // Whether a deflection was moved: only then are the states and offsets written
         // back (through the coupled vector they would round), so that the outputs at
@@ -210,20 +203,24 @@ impl<'a> SlidingStep<'a> {
     /// make at these states and inputs: the sticking force where it is inside the limit,
     /// the closest point of the ellipse where it is not.
     pub fn damper_force_changes(&self, x: &StateVector, sliders: &SliderState) -> LimitChanges {
-        self.shaped_evaluation(x, sliders, |_, changes| changes)
+        self.limit_changes(x, sliders).0
     }
 
-    /// [`SlidingStep::damper_force_changes`], and each damped slot as those projections
-    /// find it ([`ShapedSlots`]), handed to `then` (where they are made, not moved): so a
-    /// step whose last evaluation is at its end gives its outputs the same bits as they
-    /// are made from its states on demand.
-    pub(super) fn shaped_evaluation<R>(
-        &self,
-        x: &StateVector,
-        sliders: &SliderState,
-        then: impl FnOnce(&ShapedSlots, LimitChanges) -> R,
-    ) -> R {
+    /// [`SlidingStep::damper_force_changes`], and each damped group's mode as deciding
+    /// there finds it: sliding where its sticking force is outside its ellipse. Where the
+    /// slots form a cascade and the modes follow from the sticking forces
+    /// ([`SlidingStep::cascade_decides`]), by the cascade's own equations, as a cascade
+    /// step shapes its end ([`SlidingStep::cascade_limit_changes`]): so the outputs of
+    /// such a step have the same bits as those made from its states on demand.
+    pub(super) fn limit_changes(&self, x: &StateVector, sliders: &SliderState) -> (LimitChanges, Modes) {
         let z = self.layout.pack(x, sliders);
+        if self.cascade_decides()
+            && let Some(found) = self
+                .cascade()
+                .and_then(|cascade| self.cascade_limit_changes(cascade, &z))
+        {
+            return found;
+        }
         let states = self.layout.model_states(&z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut change = [0.0; Direction::COUNT];
@@ -236,40 +233,34 @@ impl<'a> SlidingStep<'a> {
                 change[d] -= element.stiffness * states[k] + element.damping * rates[k];
             }
         }
-        let mut shaped = ShapedSlots {
-            inputs: [GroupInput::at_rest(&GroupLaw::EMPTY); MAX_TOGETHER],
-            trials: [[0.0; MAX_MEMBERS]; MAX_TOGETHER],
-            utilisations: [0.0; MAX_TOGETHER],
-            outside: [false; MAX_TOGETHER],
-            points: [[0.0; MAX_MEMBERS]; MAX_TOGETHER],
-        };
+        let mut inputs = [GroupInput::at_rest(&GroupLaw::EMPTY); MAX_TOGETHER];
+        let mut trials = [[0.0; MAX_MEMBERS]; MAX_TOGETHER];
+        let mut utilisations = [0.0; MAX_TOGETHER];
+        let mut outside = [false; MAX_TOGETHER];
         let slots = &self.slots()[..self.slots().len().min(MAX_TOGETHER)];
         for (j, slot) in slots.iter().enumerate() {
             let input = self.slot_input(slot, &states, &rates, &z);
             if input.damped() {
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
-                (shaped.trials[j], shaped.utilisations[j]) = (trial, utilisation);
-                shaped.outside[j] = utilisation > 1.0;
+                (trials[j], utilisations[j]) = (trial, utilisation);
+                outside[j] = utilisation > 1.0;
             }
-            shaped.inputs[j] = input;
+            inputs[j] = input;
         }
-        shaped.points = closest_points_where(
-            &shaped.inputs[..slots.len()],
-            &shaped.trials,
-            &shaped.utilisations,
-            &shaped.outside,
-        );
+        let points = closest_points_where(&inputs[..slots.len()], &trials, &utilisations, &outside);
+        let mut modes = [[false; MAX_BRANCHES]; Group::COUNT];
         // In the order of the slots.
-        for j in 0..slots.len() {
-            if shaped.outside[j] {
-                let input = &shaped.inputs[j];
+        for (j, slot) in slots.iter().enumerate() {
+            modes[slot.group][slot.branch] = outside[j];
+            if outside[j] {
+                let input = &inputs[j];
                 for m in input.members() {
-                    change[input.direction[m]] += shaped.points[j][m] - shaped.trials[j][m];
+                    change[input.direction[m]] += points[j][m] - trials[j][m];
                 }
             }
         }
-        then(&shaped, change)
+        (change, modes)
     }
 
     /// The tire as a hybrid system in the modes of `sliders` (an importer's solver
@@ -325,29 +316,5 @@ impl<'a> SlidingStep<'a> {
     pub fn rates_at(&self, x: &StateVector, sliders: &SliderState) -> (StateVector, SliderState) {
         let (x_rates, offset_rates, _) = self.unpacked_rates(x, sliders, false);
         (x_rates, offset_rates)
-    }
-}
-
-/// Each slot at one state as the outputs' shaping finds it ([`SlidingStep::shaped_evaluation`]):
-/// its input, and where it is damped, its trial force and that force's utilisation, and
-/// where that is outside the ellipse, the closest point there.
-pub(super) struct ShapedSlots<'s> {
-    inputs: [GroupInput<'s>; MAX_TOGETHER],
-    trials: [Members; MAX_TOGETHER],
-    utilisations: [f64; MAX_TOGETHER],
-    outside: [bool; MAX_TOGETHER],
-    points: [Members; MAX_TOGETHER],
-}
-
-impl ShapedSlots<'_> {
-    /// Slot `j`'s rates, forces and event value in mode `sliding`, as
-    /// [`GroupInput::evaluate`] gives them.
-    pub(super) fn output(&self, j: usize, sliding: bool) -> GroupOutput {
-        let input = &self.inputs[j];
-        if self.outside[j] {
-            input.damped_evaluated(sliding, self.trials[j], self.utilisations[j], &self.points[j])
-        } else {
-            input.evaluate(sliding)
-        }
     }
 }
