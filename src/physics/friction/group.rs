@@ -575,6 +575,7 @@ impl<'a> GroupInput<'a> {
     /// one-member ellipse's closest point, exactly, with no projection to search.
     #[inline]
     pub fn evaluate_one_damped(&self, sliding: Option<bool>) -> (GroupOutput, bool) {
+        debug_assert!(self.count == 1 && self.damped(), "a damped group of one member");
         let trial = self.sticking_force();
         let utilisation = self.utilisation(&trial);
         let sliding = sliding.unwrap_or(utilisation > 1.0);

@@ -243,17 +243,19 @@ impl Cascade {
         }
         // Driven group `n` is branch `n` of the same elements, member by member (as the
         // slots are laid out: by group, then branch), so that summing member `m` group by
-        // group sums an element's branches in their order ([`SlidingStep::end_point`]).
+        // group sums an element's branches in their order ([`SlidingStep::end_point`]);
+        // or there is none (no limit in either planar direction).
         let first = cascade.driven().next().map(|j| &slots[j].law);
-        let by_branch = cascade.driven_count == layout.branches
-            && cascade.driven().enumerate().all(|(n, j)| {
-                let law = &slots[j].law;
-                slots[j].branch == n
-                    && first.is_some_and(|first| {
-                        law.count == first.count
-                            && law.direction[..law.count] == first.direction[..first.count]
-                    })
-            });
+        let by_branch = cascade.driven_count == 0
+            || cascade.driven_count == layout.branches
+                && cascade.driven().enumerate().all(|(n, j)| {
+                    let law = &slots[j].law;
+                    slots[j].branch == n
+                        && first.is_some_and(|first| {
+                            law.count == first.count
+                                && law.direction[..law.count] == first.direction[..first.count]
+                        })
+                });
         // The driven entries within the whole vector's count, which the extrapolation of a
         // stiff substep compares.
         (by_branch && cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
@@ -705,8 +707,9 @@ impl SlidingStep<'_> {
     ) -> ShapingPoint {
         let weights = &self.layout.weights;
         // Member `m` of every group is a branch of one element: its state is the sum over
-        // the groups, in the order of the branches (past them, weight and entry are zero:
-        // they add nothing). Summed over fixed lengths, in registers.
+        // the groups, in the order of the branches (past them, weight and entry are zero,
+        // and a sum begun at +0 adds their zeros without a change, as the sums of the
+        // packed vector add theirs). Summed over fixed lengths, in registers.
         let mut states = [0.0; MAX_MEMBERS];
         for n in 0..MAX_BRANCHES {
             for m in 0..MAX_MEMBERS {
@@ -1768,6 +1771,12 @@ mod tests {
             // last evaluation was there: the outputs' own projections there, the same bits.
             if let Some(Some(shaped)) = shaped {
                 prop_assert_eq!(shaped.changes, step.damper_force_changes(&x_cascade, &sliders_cascade));
+                // And within rounding of the whole system's projections there.
+                let (whole, _) = step.whole_system_limit_changes(&step.layout.pack(&x_cascade, &sliders_cascade));
+                let limit = step.limits.0.iter().fold(0.0_f64, |m, &l| m.max(l));
+                for (a, b) in shaped.changes.iter().zip(&whole) {
+                    prop_assert!((a - b).abs() <= 1e-9 * limit, "{a} vs the whole system's {b}");
+                }
             }
             let (mut x_whole, mut sliders_whole) = (x, sliders);
             step.stiff.set(stiff);
@@ -1892,6 +1901,134 @@ mod tests {
             });
         }
         changed
+    }
+
+    /// A step from a restored state (its modes decided at its start) goes on bit for bit
+    /// as a step from the end of the last one does (prepared with the modes its outputs
+    /// decided there), also where a driven group is on its limit to rounding, which the
+    /// cascade leaves to the whole-system path, and where the whole system's trial forces
+    /// (rounded otherwise) would decide its mode otherwise: DDT with either law, sliding
+    /// laterally and in both directions, a lateral branch's offset set where its mode
+    /// changes by the cascade's decision and by the whole system's, steps of 1 and 20 ms.
+    #[test]
+    fn a_step_from_a_restored_state_at_a_limit_goes_on_as_a_prepared_one() {
+        let mut decided_otherwise = 0;
+        for law in [FrictionLaw::Coulomb, FrictionLaw::Brush] {
+            for combined in [false, true] {
+                let p = super::super::slide_parameters(ModelKind::Ddt, law, combined);
+                let load = p.get(Parameter::NominalLoad);
+                for (k, vx) in (0..8).zip([10.0, -5.0, 0.5, 20.0].into_iter().cycle()) {
+                    let states = [0.3 * k as f64 - 0.6, 0.5, -0.2 * k as f64];
+                    let inputs = [0.0, 0.2 - 0.05 * k as f64, 0.1];
+                    decided_otherwise +=
+                        with_settled_slide(&p, (vx, load), (&states, inputs), |step, x, sliders, travel| {
+                            let driven = step.cascade().expect("DDT's slots form a cascade").driven_count;
+                            (0..driven)
+                                .flat_map(|n| (0..2).map(move |m| (n, m)))
+                                .map(|member| {
+                                    on_a_limit_restored_and_prepared_agree(step, (x, sliders), travel, member)
+                                })
+                                .sum::<usize>()
+                        });
+                }
+            }
+        }
+        assert!(
+            decided_otherwise > 0,
+            "no start where the whole system decides otherwise"
+        );
+    }
+
+    /// [`a_step_from_a_restored_state_at_a_limit_goes_on_as_a_prepared_one`] from one
+    /// settled slide: how many of its starts the whole system's trial forces decide
+    /// otherwise than the cascade's.
+    fn on_a_limit_restored_and_prepared_agree(
+        step: &super::SlidingStep,
+        (x, sliders): (StateVector, SliderState),
+        travel: f64,
+        (n, m): (usize, usize),
+    ) -> usize {
+        let cascade = step.cascade().expect("DDT's slots form a cascade");
+        let slot = step.slots()[cascade.driven().nth(n).expect("a driven group")];
+        if m >= slot.law.count {
+            return 0;
+        }
+        let (d, i) = (slot.law.direction[m], slot.branch);
+        let with_offset = |offset: f64| {
+            let mut s = sliders;
+            s.offsets[d][i] = offset;
+            s
+        };
+        // The branch's mode by the cascade's decision (the outputs'), and by the whole
+        // system's (preparing from its trial forces).
+        let by_cascade =
+            |offset: f64| step.limit_changes(&x, &with_offset(offset)).1[slot.group][slot.branch];
+        let by_whole_system = |offset: f64| {
+            let mut s = with_offset(offset);
+            step.prepare(&mut x.clone(), &mut s);
+            s.sliding[slot.group][slot.branch]
+        };
+        // Where each changes along the offset: bracketed, then halved down to two
+        // neighbouring values.
+        let start = sliders.offsets[d][i];
+        let Some(bracket) = (1..=40).map(|k| k as f64 * 0.25 * travel).find_map(|reach| {
+            [start - reach, start + reach]
+                .into_iter()
+                .find(|&o| by_cascade(o) != by_cascade(start))
+                .map(|o| if by_cascade(start) { (o, start) } else { (start, o) })
+        }) else {
+            return 0;
+        };
+        let change = |sliding: &dyn Fn(f64) -> bool| {
+            let (mut inside, mut outside) = bracket;
+            for _ in 0..2000 {
+                let middle = 0.5 * (inside + outside);
+                if middle == inside || middle == outside {
+                    break;
+                }
+                if sliding(middle) {
+                    outside = middle;
+                } else {
+                    inside = middle;
+                }
+            }
+            [inside, outside]
+        };
+        let mut offsets = change(&by_cascade).to_vec();
+        offsets.extend(change(&by_whole_system));
+        let decided_otherwise = offsets
+            .iter()
+            .filter(|&&o| by_cascade(o) != by_whole_system(o))
+            .count();
+        for offset in offsets {
+            let at = with_offset(offset);
+            for h in [1e-3, 2e-2] {
+                // Restored: the modes decided at the step's start.
+                let (mut x_restored, mut restored) = (x, at);
+                let restored_end = step.prepare_and_integrate(&mut x_restored, &mut restored, h);
+                // Prepared with the modes the outputs there decide.
+                let (mut x_prepared, mut prepared) = (x, at);
+                let (_, preparation) =
+                    step.prepare_with_damper_force_changes(&mut x.clone(), &mut at.clone());
+                step.prepare_from(
+                    &mut prepared,
+                    &preparation.expect("the cascade decides the modes"),
+                );
+                let prepared_end = step.integrate(&mut x_prepared, &mut prepared, h);
+                assert_eq!(restored_end.is_ok(), prepared_end.is_ok(), "{offset} at {h} s");
+                let bits = |x: &StateVector, s: &SliderState| {
+                    let mut all: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+                    all.extend(s.offsets.iter().flatten().map(|v| v.to_bits()));
+                    (all, s.sliding)
+                };
+                assert_eq!(
+                    bits(&x_restored, &restored),
+                    bits(&x_prepared, &prepared),
+                    "offset {offset} (branch {i}), step {h} s"
+                );
+            }
+        }
+        decided_otherwise
     }
 
     /// A yaw branch (a driver) that reaches its limit within a step splits the cascade's

@@ -498,10 +498,19 @@ impl<'a> SlidingStep<'a> {
         if let Some(shaped) = self.cascade_step(x, sliders, h, cascade::Start::Undecided) {
             return Ok(shaped);
         }
-        self.prepare(x, sliders);
         // Where the cascade decided the modes and gave the step up, it would again from
-        // the prepared ones (the same, or a group at its limit, where it gives up).
+        // the prepared ones (the same, or a group at its limit, where it gives up). They
+        // are prepared as it decided them, by its own equations (preparing moves nothing
+        // there): as the outputs at the end of the last step decided them, which a step
+        // from there is prepared with, so that a step from a restored state takes the
+        // same modes to the last bit (a group at its limit to rounding may be decided
+        // otherwise by the whole system's trial forces).
         let tried = self.cascade_decides() && self.cascade_applies();
+        if tried {
+            self.prepare_with_damper_force_changes(x, sliders);
+        } else {
+            self.prepare(x, sliders);
+        }
         self.integrate_from(x, sliders, h, !tried)
     }
 

@@ -6,7 +6,7 @@
 
 use super::super::group::{GroupInput, GroupLaw, MAX_MEMBERS, MAX_TOGETHER, closest_points_where};
 use super::super::{Direction, EVENT_TOLERANCE, Group, MAX_BRANCHES, SliderState};
-use super::{Events, Modes, SIZE, SlidingStep};
+use super::{Events, Modes, SIZE, SlidingStep, Vector};
 use crate::physics::state_space::StateVector;
 
 /// What deciding the modes at a step's start found.
@@ -221,7 +221,13 @@ impl<'a> SlidingStep<'a> {
         {
             return found;
         }
-        let states = self.layout.model_states(&z);
+        self.whole_system_limit_changes(&z)
+    }
+
+    /// [`SlidingStep::limit_changes`] at the coupled vector `z` by the whole system's
+    /// equations: every slot's trial force from the model states' rates.
+    pub(super) fn whole_system_limit_changes(&self, z: &Vector) -> (LimitChanges, Modes) {
+        let states = self.layout.model_states(z);
         let rates = self.system.state_rates(&states, &self.inputs);
         let mut change = [0.0; Direction::COUNT];
         // A frictionless direction carries no force: its damper's share goes too.
@@ -239,7 +245,7 @@ impl<'a> SlidingStep<'a> {
         let mut outside = [false; MAX_TOGETHER];
         let slots = &self.slots()[..self.slots().len().min(MAX_TOGETHER)];
         for (j, slot) in slots.iter().enumerate() {
-            let input = self.slot_input(slot, &states, &rates, &z);
+            let input = self.slot_input(slot, &states, &rates, z);
             if input.damped() {
                 let trial = input.sticking_force();
                 let utilisation = input.utilisation(&trial);
