@@ -80,7 +80,7 @@ use super::{
     SliderState, SlidingStep, Slot, Vector,
 };
 use crate::physics::friction::group::{
-    GroupInput, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
+    GroupInput, GroupLaw, GroupOutput, MAX_MEMBERS, MAX_TOGETHER, Members, evaluate_together,
 };
 use crate::physics::friction::{Direction, EVENT_TOLERANCE};
 use crate::physics::state_space::{DrivingVector, MAX_STATES, StateVector};
@@ -245,17 +245,14 @@ impl Cascade {
         // slots are laid out: by group, then branch), so that summing member `m` group by
         // group sums an element's branches in their order ([`SlidingStep::end_point`]);
         // or there is none (no limit in either planar direction).
-        let first = cascade.driven().next().map(|j| &slots[j].law);
-        let by_branch = cascade.driven_count == 0
-            || cascade.driven_count == layout.branches
-                && cascade.driven().enumerate().all(|(n, j)| {
-                    let law = &slots[j].law;
-                    slots[j].branch == n
-                        && first.is_some_and(|first| {
-                            law.count == first.count
-                                && law.direction[..law.count] == first.direction[..first.count]
-                        })
-                });
+        let same_members = |a: &GroupLaw, b: &GroupLaw| a.direction[..a.count] == b.direction[..b.count];
+        let by_branch = cascade.driven().next().is_none_or(|first| {
+            cascade.driven_count == layout.branches
+                && cascade
+                    .driven()
+                    .enumerate()
+                    .all(|(n, j)| slots[j].branch == n && same_members(&slots[j].law, &slots[first].law))
+        });
         // The driven entries within the whole vector's count, which the extrapolation of a
         // stiff substep compares.
         (by_branch && cascade.driven_count <= MAX_BRANCHES && entry(cascade.driven_count, 0) <= layout.size)
@@ -657,19 +654,13 @@ impl SlidingStep<'_> {
         for j in cascade.drivers() {
             let slot = &self.slots()[j];
             let input = driver_input(slot, at.drivers[slot.branch], groups.driver_drive);
-            let trial = input.sticking_force();
-            let utilisation = input.utilisation(&trial);
             let sliding = groups.modes[slot.group][slot.branch];
-            // Its event value below zero ([`GroupInput::event`]).
-            drivers_decided &= if sliding {
-                utilisation > 1.0
-            } else {
-                utilisation < 1.0
-            };
-            // A sliding driver's force is on its limit, on its trial force's side (a
-            // one-member ellipse's closest point).
-            if sliding && input.damped() {
-                changes[slot.law.direction[0]] += slot.law.limit[0].copysign(trial[0]) - trial[0];
+            // As the step's drivers are evaluated (every group damped where the end is
+            // shaped): a sliding one's force on its limit.
+            let (output, _) = input.evaluate_one_damped(Some(sliding));
+            drivers_decided &= output.event < 0.0;
+            if sliding {
+                changes[slot.law.direction[0]] += output.force[0] - input.sticking_force()[0];
             }
         }
         CascadeShaping {
