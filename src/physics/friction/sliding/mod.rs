@@ -783,7 +783,7 @@ impl<'a> SlidingStep<'a> {
 /// substeps by the pair with them: a combined slide's error is largest where its force
 /// turns, at a step's start, so its first substep is its shortest, and the second may be
 /// longer than the first's error would allow. DDT's cascade carries its first exprb42
-/// substep's the same way (`cascade::carried_first_substep`), and no second. Either
+/// substep's the same way (`cascade::lengths::carried_first_substep`), and no second. Either
 /// method reads what the other carried as a first try, which its error control corrects.
 pub type HighOrderSubsteps = [f64; 2];
 
