@@ -257,6 +257,69 @@ fn a_slide_starts_and_ends_at_events_and_the_force_stays_on_its_limit() {
     assert_eq!(events, 1, "touchdown");
 }
 
+/// An input event: the importer enters event mode, sets `inputs` and updates; whether the
+/// update reported valuesOfContinuousStatesChanged.
+fn input_event(slave: &Slave, inputs: [f64; 5]) -> bool {
+    assert_eq!(unsafe { slave.fmu.fmi2EnterEventMode(slave.c) }, OK);
+    assert_eq!(slave.set_real(&INPUTS, &inputs), OK);
+    let info = new_discrete_states(slave);
+    assert_eq!(unsafe { slave.fmu.fmi2EnterContinuousTimeMode(slave.c) }, OK);
+    info.valuesOfContinuousStatesChanged != 0
+}
+
+/// The rates jump wherever a mode changes, so the event update says so
+/// (valuesOfContinuousStatesChanged), and an importer that keeps a solver history (fmusim
+/// with CVode restarts only then) starts again; where no mode changed it says nothing.
+#[test]
+fn the_event_update_reports_every_change_of_mode_and_only_those() {
+    let fmu = load();
+    let mu = 0.02;
+    let mut me = running(&fmu, "me_restart", 1, 2, &[(vr::MU_Y, mu)]);
+    let push = [0.0, 0.01, 0.0, 0.0, 50_000.0];
+    assert!(!input_event(&me, push), "an input event that changes no mode");
+
+    // A state event: the push brings the force to its limit and the tire slides.
+    let mut before = indicators(&me);
+    let mut changed = None;
+    for _ in 0..1000 {
+        let mut x = states(&me);
+        for (state, rate) in x.iter_mut().zip(derivatives(&me)) {
+            *state += 1e-3 * rate;
+        }
+        me.time += 1e-3;
+        assert_eq!(unsafe { fmu.fmi2SetTime(me.c, me.time) }, OK);
+        set_states(&me, &x);
+        let after = indicators(&me);
+        if before.iter().zip(&after).any(|(b, a)| (*b > 0.0) != (*a > 0.0)) {
+            assert_eq!(unsafe { fmu.fmi2EnterEventMode(me.c) }, OK);
+            changed = Some(new_discrete_states(&me).valuesOfContinuousStatesChanged != 0);
+            assert_eq!(unsafe { fmu.fmi2EnterContinuousTimeMode(me.c) }, OK);
+            break;
+        }
+        before = after;
+    }
+    assert_eq!(changed, Some(true), "stick to slide reported");
+    assert!(!input_event(&me, push), "still sliding, the same push");
+
+    // Input events that change the contact: lift-off, nothing, touchdown.
+    assert!(
+        input_event(&me, [0.0, 0.01, 0.0, 0.0, -1_000.0]),
+        "lift-off reported"
+    );
+    assert!(
+        !input_event(&me, [0.0, 0.02, 0.0, 0.0, -2_000.0]),
+        "still off the ground"
+    );
+    assert!(
+        input_event(&me, [0.0, 0.0, 0.0, 0.0, 50_000.0]),
+        "touchdown reported"
+    );
+    assert!(
+        !input_event(&me, [0.0, 0.0, 0.0, 0.0, 60_000.0]),
+        "a larger load, its force inside the limit: still sticking"
+    );
+}
+
 #[test]
 fn the_fmu_state_carries_the_modes_across_a_serialization() {
     let fmu = load();

@@ -1,9 +1,10 @@
-//! The packed library loads on every x86_64 Linux from the manylinux2014 baseline on
-//! (SPEC 1): read from the ELF file inside `target/fmu/TireLag.fmu` itself, it needs no
-//! glibc symbol version above GLIBC_2.17 and no library but libc, libm, libdl, libpthread,
-//! librt, libgcc_s and the dynamic loader.
+//! The packed libraries load on every Linux from the manylinux2014 baseline on (SPEC 1,
+//! 1b): read from the ELF files inside the FMUs themselves, the x86_64 one (`linux64`,
+//! `x86_64-linux`) and the aarch64 one (`aarch64-linux`, FMI 3.0 only) need no glibc
+//! symbol version above GLIBC_2.17 and no library but libc, libm, libdl, libpthread, librt,
+//! libgcc_s and the dynamic loader.
 //!
-//! The ELF is read here by hand (64-bit little-endian, as the FMU's `linux64` binary is):
+//! The ELF is read here by hand (64-bit little-endian, as both Linux binaries are):
 //! the dynamic section's DT_NEEDED entries and the version-needs section
 //! (SHT_GNU_verneed), whose auxiliary entries name every symbol version the library asks
 //! of each library it needs.
@@ -12,16 +13,23 @@ mod support;
 
 use std::io::Read;
 
-/// The libraries an FMU for manylinux2014 may need.
-const ALLOWED_LIBRARIES: [&str; 7] = [
+/// The libraries an FMU for manylinux2014 may need, beside its CPU's dynamic loader.
+const ALLOWED_LIBRARIES: [&str; 6] = [
     "libc.so.6",
     "libm.so.6",
     "libdl.so.2",
     "libpthread.so.0",
     "librt.so.1",
     "libgcc_s.so.1",
-    "ld-linux-x86-64.so.2",
 ];
+
+/// The CPUs of the Linux binaries: (ELF e_machine, the dynamic loader's name).
+const X86_64: (u16, &str) = (62, "ld-linux-x86-64.so.2");
+const AARCH64: (u16, &str) = (183, "ld-linux-aarch64.so.1");
+
+fn allowed(library: &str, loader: &str) -> bool {
+    library == loader || ALLOWED_LIBRARIES.contains(&library)
+}
 
 /// The newest glibc symbol version the library may need.
 const NEWEST_GLIBC: (u32, u32) = (2, 17);
@@ -48,13 +56,13 @@ struct Section {
 }
 
 impl<'a> Elf<'a> {
-    fn new(bytes: &'a [u8]) -> Self {
+    fn new(bytes: &'a [u8], machine: u16) -> Self {
         assert!(bytes.len() >= 64 && bytes[..4] == *b"\x7fELF", "not an ELF file");
         assert_eq!(bytes[4], 2, "not a 64-bit ELF file (EI_CLASS)");
         assert_eq!(bytes[5], 1, "not a little-endian ELF file (EI_DATA)");
         let elf = Self { bytes };
         assert_eq!(elf.u16(16), 3, "not a shared object (e_type ET_DYN)");
-        assert_eq!(elf.u16(18), 62, "not an x86_64 file (e_machine EM_X86_64)");
+        assert_eq!(elf.u16(18), machine, "built for another CPU (e_machine)");
         elf
     }
 
@@ -189,29 +197,22 @@ fn the_fmi3_fmu_packs_the_same_library() {
     assert!(fmi3 == packed_library(), "the two FMUs hold different libraries");
 }
 
-#[test]
-fn the_packed_library_needs_only_the_manylinux2014_libraries() {
-    let bytes = packed_library();
-    let needed = Elf::new(&bytes).needed_libraries();
+fn assert_needs_only_the_manylinux2014_libraries(bytes: &[u8], (machine, loader): (u16, &str)) {
+    let needed = Elf::new(bytes, machine).needed_libraries();
     println!("needed libraries: {needed:?}");
     assert!(
         needed.iter().any(|l| l == "libc.so.6"),
         "no libc among {needed:?}"
     );
-    let others: Vec<_> = needed
-        .iter()
-        .filter(|l| !ALLOWED_LIBRARIES.contains(&l.as_str()))
-        .collect();
+    let others: Vec<_> = needed.iter().filter(|l| !allowed(l, loader)).collect();
     assert!(
         others.is_empty(),
-        "the library needs {others:?}, beyond the manylinux2014 set {ALLOWED_LIBRARIES:?}"
+        "the library needs {others:?}, beyond the manylinux2014 set {ALLOWED_LIBRARIES:?} and {loader}"
     );
 }
 
-#[test]
-fn the_packed_library_needs_no_glibc_symbol_newer_than_2_17() {
-    let bytes = packed_library();
-    let versions = Elf::new(&bytes).needed_versions();
+fn assert_needs_no_glibc_symbol_newer_than_2_17(bytes: &[u8], (machine, loader): (u16, &str)) {
+    let versions = Elf::new(bytes, machine).needed_versions();
     println!("needed symbol versions: {versions:?}");
     assert!(
         versions.iter().any(|(_, v)| glibc_version(v).is_some()),
@@ -229,12 +230,45 @@ fn the_packed_library_needs_no_glibc_symbol_newer_than_2_17() {
     );
     let unknown_libraries: Vec<_> = versions
         .iter()
-        .filter(|(library, _)| !ALLOWED_LIBRARIES.contains(&library.as_str()))
+        .filter(|(library, _)| !allowed(library, loader))
         .collect();
     assert!(
         unknown_libraries.is_empty(),
         "versions of other libraries: {unknown_libraries:?}"
     );
+}
+
+#[test]
+fn the_packed_library_needs_only_the_manylinux2014_libraries() {
+    assert_needs_only_the_manylinux2014_libraries(&packed_library(), X86_64);
+}
+
+#[test]
+fn the_packed_library_needs_no_glibc_symbol_newer_than_2_17() {
+    assert_needs_no_glibc_symbol_newer_than_2_17(&packed_library(), X86_64);
+}
+
+/// The Linux aarch64 library of the FMI 3.0 FMU, when it was packed (not with `--native`).
+fn aarch64_library() -> Option<Vec<u8>> {
+    support::platform_binary(
+        "TIRELAG_FMU3",
+        "target/fmu/fmi3/TireLag.fmu",
+        "binaries/aarch64-linux/TireLag.so",
+    )
+}
+
+#[test]
+fn the_aarch64_library_needs_only_the_manylinux2014_libraries() {
+    if let Some(bytes) = aarch64_library() {
+        assert_needs_only_the_manylinux2014_libraries(&bytes, AARCH64);
+    }
+}
+
+#[test]
+fn the_aarch64_library_needs_no_glibc_symbol_newer_than_2_17() {
+    if let Some(bytes) = aarch64_library() {
+        assert_needs_no_glibc_symbol_newer_than_2_17(&bytes, AARCH64);
+    }
 }
 
 #[test]

@@ -95,6 +95,33 @@ pub fn packed_artifact(env_var: &str, relative: &str) -> PathBuf {
     path
 }
 
+/// The archive entry `name` of the FMU at `relative` (or the path in `env_var`) that holds
+/// one platform's binary. None, with a note, when the FMU was packed for Linux x86_64 alone
+/// (`./scripts/build-fmu --native`); under `./scripts/test`, which packs every platform
+/// (TIRELAG_ALL_PLATFORMS=1), a missing binary fails the test.
+pub fn platform_binary(env_var: &str, relative: &str, name: &str) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let fmu = packed_artifact(env_var, relative);
+    let mut archive =
+        zip::ZipArchive::new(std::fs::File::open(&fmu).unwrap()).expect("the FMU is a zip archive");
+    let Ok(mut entry) = archive.by_name(name) else {
+        let all = std::env::var("TIRELAG_ALL_PLATFORMS").as_deref() == Ok("1");
+        assert!(
+            !all,
+            "{} holds no {name}: ./scripts/build-fmu packs every platform",
+            fmu.display()
+        );
+        println!(
+            "skipped: {} holds no {name} (packed with --native)",
+            fmu.display()
+        );
+        return None;
+    };
+    let mut bytes = Vec::new();
+    entry.read_to_end(&mut bytes).unwrap();
+    Some(bytes)
+}
+
 /// The packed binary, also unpacked as `target/fmu/TireLag.so`.
 pub fn binary_path() -> PathBuf {
     packed_artifact("TIRELAG_SO", "target/fmu/TireLag.so")

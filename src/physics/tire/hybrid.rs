@@ -54,6 +54,8 @@ pub struct Evaluation {
     /// [`Friction::together_branch_weights`] (zero where there is no such group or
     /// branch, whose offset is [`NO_GUARD`]).
     together_guard_offsets: ByBranch,
+    /// The contact mode the last event update was made in (None before the first).
+    decided_contact: Option<ContactMode>,
 }
 
 /// A value per group and branch.
@@ -75,6 +77,7 @@ impl Evaluation {
             inverse_limits: None,
             limit_law: InverseLimits::new(p),
             together_guard_offsets: offsets,
+            decided_contact: None,
         }
     }
 
@@ -326,17 +329,24 @@ impl Tire {
     /// At an event: each group's mode decided anew from the states and inputs (a group on
     /// its limit whose motion pushes outward slides, with its force put on the limit; so
     /// does one the falling load left outside it; a sliding one whose motion turns inward
-    /// sticks), as a step starts. Off the ground every group sticks. Returns whether the
-    /// continuous states changed.
+    /// sticks), as a step starts. Off the ground every group sticks.
+    ///
+    /// Returns whether the continuous states or the modes (the contact, each group's stick
+    /// or slide) changed since the last update: the rates are then discontinuous there, and
+    /// a solver that keeps a history (CVode's, for one) must start again. The first update,
+    /// and the first after a restored FMU state, report a change.
     pub fn update_modes(&mut self) -> bool {
+        let contact = self.contact_mode();
+        let contact_changed = self.hybrid.decided_contact.replace(contact) != Some(contact);
         let Some(friction) = self.friction.as_ref() else {
-            return false;
+            return contact_changed;
         };
         let mut sliders = *friction.state();
-        if self.contact_mode() == ContactMode::LiftedOff {
+        let sliding_before = sliders.sliding;
+        if contact == ContactMode::LiftedOff {
             sliders.sliding = SliderState::AT_REST.sliding;
             self.friction.as_mut().expect("checked above").set_state(sliders);
-            return false;
+            return contact_changed || sliders.sliding != sliding_before;
         }
         let before = self.continuous_states();
         let (inputs, mut x) = (self.inputs, self.states);
@@ -348,7 +358,8 @@ impl Tire {
         self.friction.as_mut().expect("checked above").set_state(sliders);
         self.changed();
         let after = self.continuous_states();
-        before.iter().zip(&after).any(|(a, b)| a.to_bits() != b.to_bits())
+        let states_changed = before.iter().zip(&after).any(|(a, b)| a.to_bits() != b.to_bits());
+        contact_changed || sliders.sliding != sliding_before || states_changed
     }
 
     /// A typical magnitude of each continuous state: an element's state and its branch
