@@ -14,6 +14,7 @@ pub mod brush;
 pub mod friction;
 pub mod load;
 mod lu;
+pub mod math;
 pub mod models;
 pub mod parameters;
 pub mod signals;

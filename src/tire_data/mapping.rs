@@ -6,6 +6,7 @@ use std::fmt;
 
 use super::tir::TirFile;
 use crate::physics::Parameter;
+use crate::physics::math::{atan, exp, ln, sin};
 
 /// One parameter the file sets, and where its value came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,7 +88,7 @@ impl Keys<'_> {
 /// The cornering stiffness of MF at a load ratio `x = Fz/Fz0`, per unit of its value at
 /// the nominal load: `sin(PKY4 atan(x / PKY2)) / sin(PKY4 atan(1 / PKY2))`.
 fn cornering_stiffness_ratio(x: f64, pky2: f64, pky4: f64) -> f64 {
-    (pky4 * (x / pky2).atan()).sin() / (pky4 * (1.0 / pky2).atan()).sin()
+    sin(pky4 * atan(x / pky2)) / sin(pky4 * atan(1.0 / pky2))
 }
 
 /// TireLag's load law per unit of its nominal value: `x (1 + 1/c2^2) / (1 + x^2/c2^2)`.
@@ -100,14 +101,14 @@ fn load_law_ratio(x: f64, c2: f64) -> f64 {
 fn fitted_load_peak(pky2: f64, pky4: f64) -> (f64, f64) {
     let samples: Vec<f64> = (0..=70).map(|k| 0.25 + 0.025 * k as f64).collect();
     let error = |log_c2: f64| {
-        let c2 = log_c2.exp();
+        let c2 = exp(log_c2);
         samples
             .iter()
             .map(|&x| (load_law_ratio(x, c2) - cornering_stiffness_ratio(x, pky2, pky4)).powi(2))
             .sum::<f64>()
     };
     // A scan over c2 from 0.05 to 50, then golden sections around the best point.
-    let (low, high) = (0.05_f64.ln(), 50.0_f64.ln());
+    let (low, high) = (ln(0.05), ln(50.0));
     let grid = 400;
     let step = (high - low) / grid as f64;
     let best = (0..=grid)
@@ -126,7 +127,7 @@ fn fitted_load_peak(pky2: f64, pky4: f64) -> (f64, f64) {
     }
     let log_c2 = 0.5 * (a + b);
     let rms = (error(log_c2) / samples.len() as f64).sqrt();
-    (log_c2.exp(), rms)
+    (exp(log_c2), rms)
 }
 
 /// Maps a parsed property file: each parameter the file determines, with its source.
@@ -181,7 +182,7 @@ pub fn map(file: &TirFile) -> Result<Mapping, MappingError> {
     let pky1 = keys.required("PKY1", "Calpha")?;
     let pky2 = keys.required("PKY2", "Calpha")?;
     let pky4 = keys.or("PKY4", 2.0)?;
-    let calpha = (pky1 * nominal_load * (pky4 * (1.0 / pky2).atan()).sin()).abs() * keys.or("LKY", 1.0)?;
+    let calpha = (pky1 * nominal_load * sin(pky4 * atan(1.0 / pky2))).abs() * keys.or("LKY", 1.0)?;
     keys.used.push(format!("Fz0 = {nominal_load}"));
     set(
         &mut keys,
@@ -255,11 +256,8 @@ pub fn map(file: &TirFile) -> Result<Mapping, MappingError> {
         let pty1 = keys.required("PTY1", "sigmaY (without LATERAL_STIFFNESS)")?;
         let pty2 = keys.required("PTY2", "sigmaY (without LATERAL_STIFFNESS)")?;
         let radius = keys.required("UNLOADED_RADIUS", "sigmaY")?;
-        let sigma = pty1
-            * (2.0 * (1.0 / pty2).atan()).sin()
-            * radius
-            * keys.or("LFZO", 1.0)?
-            * keys.or("LSGAL", 1.0)?;
+        let sigma =
+            pty1 * sin(2.0 * atan(1.0 / pty2)) * radius * keys.or("LFZO", 1.0)? * keys.or("LSGAL", 1.0)?;
         set(
             &mut keys,
             Parameter::LateralRelaxationLength,
@@ -309,7 +307,7 @@ pub fn map(file: &TirFile) -> Result<Mapping, MappingError> {
         let fnomin = keys.required("FNOMIN", "Re")?;
         // The deflection at Fz0 over the one at FNOMIN (linear vertical stiffness).
         let relative = nominal_load / fnomin;
-        let re = radius - fnomin / vertical * (dreff * (breff * relative).atan() + freff * relative);
+        let re = radius - fnomin / vertical * (dreff * atan(breff * relative) + freff * relative);
         set(
             &mut keys,
             Parameter::RollingRadius,

@@ -19,6 +19,10 @@
  *        outputs; at every sign change of an indicator an event update (eventInfo's flags and
  *        the states after it).
  *   cs3  FMI 3.0 Co-Simulation, the first 500 steps of cs2.
+ *   me3  FMI 3.0 Model Exchange, as me2 (ev3: its event updates).
+ *   sl2  A stiff tire at a light load (Calpha = Ckappa = 1e7 N/rad, sigmaY = sigmaX = 0.05 m,
+ *        sigmaTread = 0.01 m, the load about 100 N): 600 steps of 1 ms through the sliding,
+ *        vx through zero and lift-off phases of cs2, twice as fast.
  * -T adds the cost per step (ns, median of 5 passes of 20000 steps of 1 ms, Brush) for each
  * model: indicative, it depends on the machine and the emulator.
  *
@@ -65,6 +69,8 @@
 #define ME_H 1e-5
 #define ME_SPEEDUP 50.0
 #define CS3_STEPS 500
+#define STIFF_STEPS 600
+#define STIFF_LOAD 100.0
 
 static const unsigned int IN_VR[N_IN] = {1, 2, 3, 4, 5};
 static const unsigned int OUT_VR[N_OUT] = {11, 12, 13, 14, 15, 16, 17, 18, 19};
@@ -239,18 +245,27 @@ static void logger2(fmi2ComponentEnvironment env, fmi2String name, fmi2Status st
 static const fmi2CallbackFunctions callbacks2 = {logger2, calloc, free, NULL, NULL};
 static const char *guid;
 
-static fmi2Component new2(fmi2Type type, int model, int law, double *fz0) {
+/* Calpha, Ckappa, sigmaY, sigmaX, sigmaTread of the stiff tire. */
+static const fmi2ValueReference STIFF_VR[5] = {101, 102, 103, 104, 119};
+static const fmi2Real STIFF_VALUE[5] = {1e7, 1e7, 0.05, 0.05, 0.01};
+
+static fmi2Component new2_with(fmi2Type type, int model, int law, int stiff, double *fz0) {
     fmi2Component c = f2.instantiate("platforms", type, guid, "", &callbacks2, fmi2False, fmi2False);
     if (!c) fail("fmi2Instantiate refused the instance");
     const fmi2ValueReference vr[2] = {VR_MODEL, VR_FRICTION};
     const fmi2Integer value[2] = {model, law};
     check2(f2.setInteger(c, vr, 2, value), "fmi2SetInteger");
+    if (stiff) check2(f2.setReal(c, STIFF_VR, 5, STIFF_VALUE), "fmi2SetReal (stiff tire)");
     check2(f2.setupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0), "fmi2SetupExperiment");
     check2(f2.enterInit(c), "fmi2EnterInitializationMode");
     const fmi2ValueReference fz0_vr = VR_FZ0;
     check2(f2.getReal(c, &fz0_vr, 1, fz0), "fmi2GetReal(Fz0)");
     check2(f2.exitInit(c), "fmi2ExitInitializationMode");
     return c;
+}
+
+static fmi2Component new2(fmi2Type type, int model, int law, double *fz0) {
+    return new2_with(type, model, law, 0, fz0);
 }
 
 /* The step k of a Co-Simulation run: h = 1 ms for the first CS_STEPS, then 0.25 s. */
@@ -315,54 +330,123 @@ static void cosimulation2(int model, int law) {
     f2.freeInstance(c);
 }
 
-static void event_update2(fmi2Component c, int model, int law, int k, double *x) {
-    fmi2EventInfo info;
-    check2(f2.enterEventMode(c), "fmi2EnterEventMode");
-    int rounds = 0;
-    do {
-        check2(f2.newDiscreteStates(c, &info), "fmi2NewDiscreteStates");
-        if (++rounds > 10) fail("model %d law %d: the event update at step %d does not settle", model, law, k);
-    } while (info.newDiscreteStatesNeeded);
-    check2(f2.enterContinuous(c), "fmi2EnterContinuousTimeMode");
-    check2(f2.getStates(c, x, N_X), "fmi2GetContinuousStates");
-    printf("ev2 %d %d %d f %d %d %d %d", model, law, k, (int)info.valuesOfContinuousStatesChanged,
-           (int)info.nominalsOfContinuousStatesChanged, (int)info.terminateSimulation, (int)info.nextEventTimeDefined);
+static void stiff_light2(int model, int law) {
+    double fz0, u[N_IN], y[N_OUT];
+    fmi2Component c = new2_with(fmi2CoSimulation, model, law, 1, &fz0);
+    for (int k = 0; k < STIFF_STEPS; k++) {
+        const double t = 1e-3 * k;
+        scenario(0.4 + 2.0 * t, STIFF_LOAD, u);
+        check2(f2.setReal(c, IN_VR, N_IN, u), "fmi2SetReal");
+        check2(f2.doStep(c, t, 1e-3, fmi2True), "fmi2DoStep");
+        check2(f2.getReal(c, OUT_VR, N_OUT, y), "fmi2GetReal");
+        printf("sl2 %d %d %d", model, law, k);
+        print_values("y", y, N_OUT);
+        putchar('\n');
+    }
+    f2.freeInstance(c);
+}
+
+/* ------------------------------------------------------------------ Model Exchange, either version */
+
+/* One Model Exchange instance behind the calls the forward-Euler master makes. */
+typedef struct {
+    const char *tag; /* "2" or "3": the rows are me2/ev2 or me3/ev3 */
+    void (*set_time)(double t);
+    void (*set_inputs)(const double *u);
+    void (*set_states)(const double *x);
+    void (*get_indicators)(double *z);
+    void (*get_derivatives)(double *dx);
+    void (*get_outputs)(double *y);
+    /* Event mode, the update (repeated until settled), back to continuous time; fills
+     * flags (values changed, nominals changed, terminate, next event time defined). */
+    void (*event_update)(int *flags);
+    void (*get_states)(double *x);
+    void (*completed_step)(void);
+} MeDriver;
+
+static void event_update(const MeDriver *me, int model, int law, int k, double *x) {
+    int flags[4];
+    me->event_update(flags);
+    me->get_states(x);
+    printf("ev%s %d %d %d f %d %d %d %d", me->tag, model, law, k, flags[0], flags[1], flags[2], flags[3]);
     print_values("x", x, N_X);
     putchar('\n');
 }
 
-static void model_exchange2(int model, int law) {
-    double fz0, x[N_X], dx[N_X], z[N_Z], z_before[N_Z], y[N_OUT], u[N_IN];
-    fmi2Component c = new2(fmi2ModelExchange, model, law, &fz0);
-    event_update2(c, model, law, 0, x);
+static void model_exchange(const MeDriver *me, int model, int law, double fz0) {
+    double x[N_X], dx[N_X], z[N_Z], z_before[N_Z], y[N_OUT], u[N_IN];
+    event_update(me, model, law, 0, x);
     for (int k = 0; k < ME_STEPS; k++) {
         const double t = ME_H * k;
-        check2(f2.setTime(c, t), "fmi2SetTime");
+        me->set_time(t);
         scenario(ME_SPEEDUP * t, fz0, u);
-        check2(f2.setReal(c, IN_VR, N_IN, u), "fmi2SetReal");
-        check2(f2.setStates(c, x, N_X), "fmi2SetContinuousStates");
-        check2(f2.getIndicators(c, z, N_Z), "fmi2GetEventIndicators");
+        me->set_inputs(u);
+        me->set_states(x);
+        me->get_indicators(z);
         if (k > 0) {
             int crossed = 0;
             for (int i = 0; i < N_Z; i++) crossed |= (z[i] > 0.0) != (z_before[i] > 0.0);
             if (crossed) {
-                event_update2(c, model, law, k, x);
-                check2(f2.getIndicators(c, z, N_Z), "fmi2GetEventIndicators");
+                event_update(me, model, law, k, x);
+                me->get_indicators(z);
             }
         }
-        check2(f2.getDerivatives(c, dx, N_X), "fmi2GetDerivatives");
-        check2(f2.getReal(c, OUT_VR, N_OUT, y), "fmi2GetReal");
-        printf("me2 %d %d %d", model, law, k);
+        me->get_derivatives(dx);
+        me->get_outputs(y);
+        printf("me%s %d %d %d", me->tag, model, law, k);
         print_values("dx", dx, N_X);
         print_values("z", z, N_Z);
         print_values("y", y, N_OUT);
         putchar('\n');
-        fmi2Boolean enter = fmi2False, terminate = fmi2False;
-        check2(f2.completedStep(c, fmi2True, &enter, &terminate), "fmi2CompletedIntegratorStep");
+        me->completed_step();
         for (int i = 0; i < N_X; i++) x[i] += ME_H * dx[i];
         memcpy(z_before, z, sizeof z);
     }
-    f2.freeInstance(c);
+}
+
+static fmi2Component me2_instance;
+
+static void me2_set_time(double t) { check2(f2.setTime(me2_instance, t), "fmi2SetTime"); }
+static void me2_set_inputs(const double *u) { check2(f2.setReal(me2_instance, IN_VR, N_IN, u), "fmi2SetReal"); }
+static void me2_set_states(const double *x) {
+    check2(f2.setStates(me2_instance, x, N_X), "fmi2SetContinuousStates");
+}
+static void me2_get_indicators(double *z) {
+    check2(f2.getIndicators(me2_instance, z, N_Z), "fmi2GetEventIndicators");
+}
+static void me2_get_derivatives(double *dx) {
+    check2(f2.getDerivatives(me2_instance, dx, N_X), "fmi2GetDerivatives");
+}
+static void me2_get_outputs(double *y) { check2(f2.getReal(me2_instance, OUT_VR, N_OUT, y), "fmi2GetReal"); }
+static void me2_get_states(double *x) { check2(f2.getStates(me2_instance, x, N_X), "fmi2GetContinuousStates"); }
+static void me2_event_update(int *flags) {
+    fmi2EventInfo info;
+    check2(f2.enterEventMode(me2_instance), "fmi2EnterEventMode");
+    int rounds = 0;
+    do {
+        check2(f2.newDiscreteStates(me2_instance, &info), "fmi2NewDiscreteStates");
+        if (++rounds > 10) fail("an FMI 2.0 event update does not settle");
+    } while (info.newDiscreteStatesNeeded);
+    check2(f2.enterContinuous(me2_instance), "fmi2EnterContinuousTimeMode");
+    flags[0] = info.valuesOfContinuousStatesChanged;
+    flags[1] = info.nominalsOfContinuousStatesChanged;
+    flags[2] = info.terminateSimulation;
+    flags[3] = info.nextEventTimeDefined;
+}
+static void me2_completed_step(void) {
+    fmi2Boolean enter = fmi2False, terminate = fmi2False;
+    check2(f2.completedStep(me2_instance, fmi2True, &enter, &terminate), "fmi2CompletedIntegratorStep");
+}
+
+static const MeDriver ME2 = {"2", me2_set_time, me2_set_inputs, me2_set_states, me2_get_indicators,
+                             me2_get_derivatives, me2_get_outputs, me2_event_update, me2_get_states,
+                             me2_completed_step};
+
+static void model_exchange2(int model, int law) {
+    double fz0;
+    me2_instance = new2(fmi2ModelExchange, model, law, &fz0);
+    model_exchange(&ME2, model, law, fz0);
+    f2.freeInstance(me2_instance);
 }
 
 static double cost_per_step(int model) {
@@ -441,6 +525,91 @@ static void cosimulation3(int model, int law) {
     freeInstance(c);
 }
 
+static struct {
+    fmi3SetTimeTYPE *setTime;
+    fmi3SetFloat64TYPE *setFloat64;
+    fmi3GetFloat64TYPE *getFloat64;
+    fmi3SetContinuousStatesTYPE *setStates;
+    fmi3GetContinuousStatesTYPE *getStates;
+    fmi3GetContinuousStateDerivativesTYPE *getDerivatives;
+    fmi3GetEventIndicatorsTYPE *getIndicators;
+    fmi3EnterEventModeTYPE *enterEventMode;
+    fmi3UpdateDiscreteStatesTYPE *updateDiscreteStates;
+    fmi3EnterContinuousTimeModeTYPE *enterContinuous;
+    fmi3CompletedIntegratorStepTYPE *completedStep;
+    fmi3Instance c;
+} f3;
+
+static void me3_set_time(double t) { check3(f3.setTime(f3.c, t), "fmi3SetTime"); }
+static void me3_set_inputs(const double *u) {
+    check3(f3.setFloat64(f3.c, IN_VR, N_IN, u, N_IN), "fmi3SetFloat64");
+}
+static void me3_set_states(const double *x) { check3(f3.setStates(f3.c, x, N_X), "fmi3SetContinuousStates"); }
+static void me3_get_indicators(double *z) { check3(f3.getIndicators(f3.c, z, N_Z), "fmi3GetEventIndicators"); }
+static void me3_get_derivatives(double *dx) {
+    check3(f3.getDerivatives(f3.c, dx, N_X), "fmi3GetContinuousStateDerivatives");
+}
+static void me3_get_outputs(double *y) { check3(f3.getFloat64(f3.c, OUT_VR, N_OUT, y, N_OUT), "fmi3GetFloat64"); }
+static void me3_get_states(double *x) { check3(f3.getStates(f3.c, x, N_X), "fmi3GetContinuousStates"); }
+static void me3_event_update(int *flags) {
+    fmi3Boolean again = fmi3False, terminate = fmi3False, nominals = fmi3False, values = fmi3False, timed = fmi3False;
+    fmi3Float64 next = 0.0;
+    check3(f3.enterEventMode(f3.c), "fmi3EnterEventMode");
+    int rounds = 0;
+    do {
+        check3(f3.updateDiscreteStates(f3.c, &again, &terminate, &nominals, &values, &timed, &next),
+               "fmi3UpdateDiscreteStates");
+        if (++rounds > 10) fail("an FMI 3.0 event update does not settle");
+    } while (again);
+    check3(f3.enterContinuous(f3.c), "fmi3EnterContinuousTimeMode");
+    flags[0] = values;
+    flags[1] = nominals;
+    flags[2] = terminate;
+    flags[3] = timed;
+}
+static void me3_completed_step(void) {
+    fmi3Boolean enter = fmi3False, terminate = fmi3False;
+    check3(f3.completedStep(f3.c, fmi3True, &enter, &terminate), "fmi3CompletedIntegratorStep");
+}
+
+static const MeDriver ME3 = {"3", me3_set_time, me3_set_inputs, me3_set_states, me3_get_indicators,
+                             me3_get_derivatives, me3_get_outputs, me3_event_update, me3_get_states,
+                             me3_completed_step};
+
+static void model_exchange3(int model, int law) {
+    fmi3InstantiateModelExchangeTYPE *instantiate =
+        (fmi3InstantiateModelExchangeTYPE *)need("fmi3InstantiateModelExchange");
+    fmi3FreeInstanceTYPE *freeInstance = (fmi3FreeInstanceTYPE *)need("fmi3FreeInstance");
+    fmi3SetInt64TYPE *setInt64 = (fmi3SetInt64TYPE *)need("fmi3SetInt64");
+    fmi3EnterInitializationModeTYPE *enterInit =
+        (fmi3EnterInitializationModeTYPE *)need("fmi3EnterInitializationMode");
+    fmi3ExitInitializationModeTYPE *exitInit = (fmi3ExitInitializationModeTYPE *)need("fmi3ExitInitializationMode");
+    f3.setTime = (fmi3SetTimeTYPE *)need("fmi3SetTime");
+    f3.setFloat64 = (fmi3SetFloat64TYPE *)need("fmi3SetFloat64");
+    f3.getFloat64 = (fmi3GetFloat64TYPE *)need("fmi3GetFloat64");
+    f3.setStates = (fmi3SetContinuousStatesTYPE *)need("fmi3SetContinuousStates");
+    f3.getStates = (fmi3GetContinuousStatesTYPE *)need("fmi3GetContinuousStates");
+    f3.getDerivatives = (fmi3GetContinuousStateDerivativesTYPE *)need("fmi3GetContinuousStateDerivatives");
+    f3.getIndicators = (fmi3GetEventIndicatorsTYPE *)need("fmi3GetEventIndicators");
+    f3.enterEventMode = (fmi3EnterEventModeTYPE *)need("fmi3EnterEventMode");
+    f3.updateDiscreteStates = (fmi3UpdateDiscreteStatesTYPE *)need("fmi3UpdateDiscreteStates");
+    f3.enterContinuous = (fmi3EnterContinuousTimeModeTYPE *)need("fmi3EnterContinuousTimeMode");
+    f3.completedStep = (fmi3CompletedIntegratorStepTYPE *)need("fmi3CompletedIntegratorStep");
+
+    f3.c = instantiate("platforms", guid, NULL, fmi3False, fmi3False, NULL, logger3);
+    if (!f3.c) fail("fmi3InstantiateModelExchange refused the instance");
+    const fmi3ValueReference vr[2] = {VR_MODEL, VR_FRICTION};
+    const fmi3Int64 value[2] = {model, law};
+    check3(setInt64(f3.c, vr, 2, value, 2), "fmi3SetInt64");
+    check3(enterInit(f3.c, fmi3False, 0.0, 0.0, fmi3False, 0.0), "fmi3EnterInitializationMode");
+    double fz0;
+    const fmi3ValueReference fz0_vr = VR_FZ0;
+    check3(f3.getFloat64(f3.c, &fz0_vr, 1, &fz0, 1), "fmi3GetFloat64(Fz0)");
+    check3(exitInit(f3.c), "fmi3ExitInitializationMode");
+    model_exchange(&ME3, model, law, fz0);
+    freeInstance(f3.c);
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(int argc, char **argv) {
@@ -460,6 +629,8 @@ int main(int argc, char **argv) {
             cosimulation2(model, law);
             model_exchange2(model, law);
             cosimulation3(model, law);
+            model_exchange3(model, law);
+            stiff_light2(model, law);
         }
     if (timing)
         for (int model = 1; model <= 4; model++) printf("time %d %.1f\n", model, cost_per_step(model));

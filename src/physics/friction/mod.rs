@@ -56,6 +56,7 @@ pub use vocabulary::{
 use super::brush::Branch;
 use super::parameters::FrictionLaw;
 use super::state_space::{MAX_STATES, StateSpace, StateVector};
+use crate::physics::math;
 use sticking::{PresentElement, StickingCheck};
 
 /// The friction part of a tire: the law, the model's elements and the branches' states.
@@ -396,7 +397,7 @@ impl Friction {
     /// Off the ground for `relaxation_times` lift-off relaxation times: the offsets
     /// relax like the states, and every group sticks.
     pub fn lift_off(&mut self, relaxation_times: f64) {
-        let decay = (-relaxation_times).exp();
+        let decay = math::exp(-relaxation_times);
         let mut state = self.state;
         state.offsets.iter_mut().flatten().for_each(|o| *o *= decay);
         state.sliding = SliderState::AT_REST.sliding;

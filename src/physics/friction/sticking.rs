@@ -5,6 +5,7 @@
 
 use super::{Direction, Friction, Group, Limits, MAX_BRANCHES, SliderState};
 use crate::physics::lu;
+use crate::physics::math;
 use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::{
     DrivingVector, MAX_STATES, StateMatrix, StateSpace, StateVector, by_state_count,
@@ -702,7 +703,7 @@ impl Friction {
             let decay = if decoupled(system, k) {
                 transition[(k, k)]
             } else {
-                (relaxation * h).exp()
+                math::exp(relaxation * h)
             };
             let offset_force = stiffness + damping * relaxation;
             // An offset far below the rounding of the limit deflection is gone.

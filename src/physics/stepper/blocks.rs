@@ -2,6 +2,7 @@
 //! other (and on the inputs). Each block is discretised on its own, which keeps every
 //! matrix exponential 1x1, 2x2 or 3x3 for the models here.
 
+use crate::physics::math;
 use crate::physics::signals::DrivingInput;
 use crate::physics::state_space::{MAX_STATES, StateSpace};
 
@@ -129,7 +130,7 @@ fn balance(block: &mut Block, magnitude: &[[f64; MAX_STATES]; MAX_STATES]) {
                 continue;
             }
             // Multiplying scale[i] by f divides row i by f and multiplies column i by f.
-            let exponent = (0.5 * (row / column).log2()).round();
+            let exponent = (0.5 * math::log2(row / column)).round();
             if exponent != 0.0 {
                 block.scale[i] *= super::phi::power_of_two(exponent as i32);
                 changed = true;

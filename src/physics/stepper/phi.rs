@@ -16,6 +16,7 @@
 //! a few operations deep instead of a chain as long as the degree: a step waits on these
 //! series, not on their arithmetic); elsewhere closed forms.
 
+use crate::physics::math;
 use nalgebra::SMatrix;
 
 /// The 1-norm the scaled matrix is brought under before the Taylor series.
@@ -193,8 +194,8 @@ pub fn scalar_phi_functions(z: f64) -> (f64, f64, f64) {
             estrin16(phi2_series, z, z2, z4, z8),
         )
     } else if z.is_finite() {
-        let expm1 = z.exp_m1();
-        (z.exp(), expm1 / z, (expm1 - z) / (z * z))
+        let expm1 = math::exp_m1(z);
+        (math::exp(z), expm1 / z, (expm1 - z) / (z * z))
     } else {
         (f64::NAN, f64::NAN, f64::NAN)
     }
@@ -215,7 +216,7 @@ pub fn scalar_phi_functions_to_fourth(z: f64) -> [f64; 4] {
         let z4 = z2 * z2;
         estrin16(phi4_series, z, z2, z4, z4 * z4)
     } else {
-        let phi1 = z.exp_m1() / z;
+        let phi1 = math::exp_m1(z) / z;
         let phi2 = (phi1 - 1.0) / z;
         let phi3 = (phi2 - INVERSE_FACTORIAL[2]) / z;
         return [phi1, phi2, phi3, (phi3 - INVERSE_FACTORIAL[3]) / z];

@@ -13,6 +13,7 @@
 //! The angle is carried with its cosine and sine, and a stage's angle is its start rotated
 //! by a small increment, so that evaluations need no trigonometry in quasi-steady sliding.
 
+use crate::physics::math;
 use crate::physics::stepper::phi::{scalar_phi_functions, scalar_phi_functions_to_fourth};
 
 /// An angle, as its cosine and sine.
@@ -38,7 +39,7 @@ impl Angle {
 
     /// The angle in (-pi, pi].
     pub fn radians(&self) -> f64 {
-        self.sin.atan2(self.cos)
+        math::atan2(self.sin, self.cos)
     }
 
     /// This angle plus `delta`: a rotation of its cosine and sine (by polynomials for the
@@ -56,7 +57,7 @@ impl Angle {
 /// the library's functions beyond.
 fn small_sin_cos(x: f64) -> (f64, f64) {
     if x.abs() > 0.25 {
-        return x.sin_cos();
+        return math::sin_cos(x);
     }
     // (-1)^j / (2j + 1)! and (-1)^j / (2j)!, by Horner in x^2 (multiplications only).
     const SIN: [f64; 7] = taylor(1);

@@ -61,6 +61,7 @@
 use super::events::InteriorSearch;
 use super::extrapolation::{ROUNDING, TOLERANCE, largest_of};
 use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, by_entry_count};
+use crate::physics::math;
 use crate::physics::stepper::phi::inverse_factorials;
 
 /// The most terms of one phi-series; a substep that needs more is too long for it.
@@ -353,7 +354,7 @@ pub(super) fn resize(error_ratio: f64, margin: f64) -> (bool, f64) {
 /// `D3 ~ H^2`.
 pub(super) fn resize_euler(error_ratio: f64) -> (bool, f64) {
     let error = error_ratio / EULER_MARGIN;
-    resized(error, 0.9 / (3.0 * error).max(1e-10).cbrt())
+    resized(error, 0.9 / math::cbrt((3.0 * error).max(1e-10)))
 }
 
 /// Whether [`resize_euler`] takes the substep, without its growth.

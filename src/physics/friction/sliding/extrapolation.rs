@@ -13,6 +13,7 @@ use super::events::{Interior, InteriorSearch};
 use super::exponential::Exponential;
 use super::implicit::IMPLICIT_SEQUENCE;
 use super::{Events, Modes, SIZE, SlidingStep, UNEVALUATED, Vector, made_whole, retry_shorter};
+use crate::physics::math;
 use crate::physics::state_space::DrivingVector;
 
 /// What lies ahead of a substep, which decides how it is taken ([`SlidingStep::substep`]).
@@ -462,6 +463,6 @@ fn inverse_root(x: f64, order: usize) -> f64 {
     match order {
         2 => x.sqrt().recip(),
         4 => x.sqrt().sqrt().recip(),
-        _ => x.powf(-1.0 / order as f64),
+        _ => math::powf(x, -1.0 / order as f64),
     }
 }

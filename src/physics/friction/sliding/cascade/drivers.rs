@@ -3,6 +3,7 @@
 
 use super::super::Slot;
 use crate::physics::friction::group::GroupInput;
+use crate::physics::math;
 
 /// The drivers' element state over the step: `U0 + R . q(t)`, with each mode's rate `mu`,
 /// and the `q`s where the step of `step` seconds ends.
@@ -38,7 +39,7 @@ impl DriverSum {
 /// `t phi1(mu t) = (exp(mu t) - 1) / mu`, and `t` where `mu = 0`.
 pub(super) fn q_at(mu: f64, t: f64) -> f64 {
     let x = mu * t;
-    if x == 0.0 { t } else { t * x.exp_m1() / x }
+    if x == 0.0 { t } else { t * math::exp_m1(x) / x }
 }
 
 /// When a spring-damper driver in mode `sliding` from deflection `b0` at rate `rate`
@@ -66,7 +67,7 @@ pub(super) fn driver_crossing(
     let offset = damping * drive;
     let q = ((target - offset) / slope - b0) / rate;
     let x = mu * q;
-    let at = if x == 0.0 { q } else { x.ln_1p() / mu };
+    let at = if x == 0.0 { q } else { math::ln_1p(x) / mu };
     (at.is_finite() && at > 0.0).then_some(at)
 }
 

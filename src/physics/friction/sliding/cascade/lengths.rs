@@ -3,6 +3,7 @@
 
 use super::super::HighOrderSubsteps;
 use super::super::exponential::EXPRB42_MARGIN;
+use crate::physics::math;
 
 /// The share of exprb42's margin ([`EXPRB42_MARGIN`]) that its substeps' lengths aim at
 /// ([`aimed_factor`]).
@@ -73,7 +74,7 @@ pub(super) const SHARPER_MARGIN: f64 = 0.6;
 /// power), and no longer than the third-order estimate `error` would be within
 /// [`SHARPER_WITHIN`] there.
 pub(super) fn sharper_factor(error: f64, sharp: f64) -> f64 {
-    let by_own_error = (AIM * SHARPER_MARGIN / sharp.max(1e-10 * SHARPER_MARGIN)).powf(0.2);
+    let by_own_error = math::powf(AIM * SHARPER_MARGIN / sharp.max(1e-10 * SHARPER_MARGIN), 0.2);
     let trusted = (AIM * SHARPER_WITHIN / error.max(1e-10)).sqrt().sqrt();
     by_own_error.min(trusted)
 }
