@@ -5,8 +5,9 @@
 //!             [--tir FILE.tir] [--set NAME=VALUE]... [--bounds NAME=LOW:HIGH]... [--out DIR]
 //! ```
 //!
-//! DATA.csv: `time`, any of the inputs (vx, vy, steerRate, vsx, Fz) and any of Fx, Fy, Mz;
-//! row k's inputs hold until the next row, and its outputs are those at its time. The
+//! DATA.csv: `time`, any of the inputs (vx, vy, steerRate, vsx, Fz) and any of Fx, Fy, Mz,
+//! and no other column; row k's inputs hold until the next row, and its outputs are those
+//! at its time. `--help` (or `-h`) prints the usage in full and exits 0. The
 //! start values are the FMU's defaults, then the property file's, then `--set`'s. It
 //! prints its progress, then each value with its 95 % confidence interval and the
 //! residuals, and writes DIR/fit.json, DIR/fit.ssv (the fitted set as SSP parameter
@@ -22,6 +23,7 @@ use tirelag::fitting::{self, Free, data::Measurements};
 use tirelag::physics::{FrictionLaw, ModelKind, Parameter, Parameters};
 use tirelag::tire_data::{self, Mapped, ssv};
 
+#[derive(Debug)]
 struct Arguments {
     data: PathBuf,
     free: Vec<Parameter>,
@@ -33,9 +35,75 @@ struct Arguments {
     out: PathBuf,
 }
 
-const USAGE: &str = "usage: tirelag-fit DATA.csv --free NAME[,NAME...] [--model RLT|DDT|SecondOrder|RingBody] \
-                     [--friction Unlimited|Coulomb|Brush] [--tir FILE.tir] [--set NAME=VALUE]... \
-                     [--bounds NAME=LOW:HIGH]... [--out DIR]";
+/// What the command line asks for.
+#[derive(Debug)]
+enum Command {
+    Help,
+    Fit(Arguments),
+}
+
+const USAGE: &str = "usage: tirelag-fit DATA.csv --free NAME[,NAME...] [--model RLT|DDT|SecondOrder|RingBody]
+                   [--friction Unlimited|Coulomb|Brush] [--tir FILE.tir] [--set NAME=VALUE]...
+                   [--bounds NAME=LOW:HIGH]... [--out DIR]";
+
+/// The full usage, for `--help`: every option, the data file's columns, what is written where.
+fn help() -> String {
+    let mut parameters = String::new();
+    let mut line = String::from("   ");
+    for p in Parameter::ALL {
+        let entry = format!(" {} ({}),", p.name(), p.unit());
+        if line.len() + entry.len() > 90 {
+            parameters.push_str(&line);
+            parameters.push('\n');
+            line = String::from("   ");
+        }
+        line.push_str(&entry);
+    }
+    parameters.push_str(line.trim_end_matches(','));
+    format!(
+        "tirelag-fit: fits chosen parameters of a tire model and friction law to a measured run,
+simulated with the FMU's exact step (bounded least squares, 95 % confidence intervals).
+
+{USAGE}
+       tirelag-fit --help
+
+DATA.csv                 a CSV whose header names its columns: time (s), any of the inputs
+                         vx, vy (m/s), steerRate (rad/s), vsx (m/s), Fz (N) and any of the
+                         measured outputs Fx, Fy (N), Mz (N.m); no other column. A missing
+                         input is 0, a missing Fz the nominal load Fz0. Row k's inputs hold
+                         until the next row; its outputs are the tire's at its time. Lines
+                         starting with # are comments.
+--free NAME[,NAME...]    the parameters to fit (required)
+--model M                RLT (default), DDT, SecondOrder or RingBody
+--friction L             Unlimited (default), Coulomb or Brush
+--tir FILE.tir           start values from a tire property file
+--set NAME=VALUE         a start value (repeatable). Start values: the FMU's defaults, then
+                         --tir's, then --set's
+--bounds NAME=LOW:HIGH   the bounds of a free parameter (repeatable). Without: from a
+                         hundredth of its start value to a hundred times it (from 0 where
+                         it may be 0; 100 times either side where it may be negative)
+--out DIR                where the results go (default fit-out)
+-h, --help               prints this and exits
+
+Parameters (NAME):
+{parameters}
+
+Writes:
+  stderr                 each least-squares step: the sum of squares and the values
+  stdout                 each fitted value with its standard error and 95 % interval, and
+                         the residual rms of each output
+  DIR/fit.json           the estimates (value, standard_error, interval, unit; null where
+                         the data do not determine a parameter), the residual rms, every
+                         parameter as fitted
+  DIR/fit.ssv            the fitted set as SSP parameter values, tireModel and friction
+                         included, to load into the FMU
+  DIR/fit.csv            time and each output measured and fitted
+  DIR/fit.png            measured against fitted: drawn by ./scripts/fit (scripts/fit_plot.py)
+                         after this command
+
+Exit status: 0 when fitted, 2 with the reason where the data or the arguments cannot be used."
+    )
+}
 
 fn parameter(name: &str) -> Result<Parameter, String> {
     Parameter::ALL
@@ -49,8 +117,13 @@ fn number(text: &str) -> Result<f64, String> {
         .map_err(|_| format!("'{text}' is not a number"))
 }
 
-fn parse_arguments() -> Result<Arguments, String> {
-    let mut args = std::env::args().skip(1);
+/// Reads the arguments (without the program's name). `--help` or `-h` anywhere asks for the
+/// help, whatever else is there (./scripts/fit looks for it the same way).
+fn parse_arguments(args: Vec<String>) -> Result<Command, String> {
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        return Ok(Command::Help);
+    }
+    let mut args = args.into_iter();
     let mut parsed = Arguments {
         data: PathBuf::new(),
         free: Vec::new(),
@@ -115,7 +188,7 @@ fn parse_arguments() -> Result<Arguments, String> {
     if parsed.free.is_empty() {
         return Err("no free parameters (--free)".into());
     }
-    Ok(parsed)
+    Ok(Command::Fit(parsed))
 }
 
 fn start_parameters(args: &Arguments) -> Result<Parameters, String> {
@@ -139,7 +212,13 @@ fn start_parameters(args: &Arguments) -> Result<Parameters, String> {
 }
 
 fn run() -> Result<(), String> {
-    let args = parse_arguments()?;
+    let args = match parse_arguments(std::env::args().skip(1).collect())? {
+        Command::Help => {
+            println!("{}", help());
+            return Ok(());
+        }
+        Command::Fit(args) => args,
+    };
     let text = std::fs::read_to_string(&args.data).map_err(|e| format!("{}: {e}", args.data.display()))?;
     let measurements = Measurements::parse(&text).map_err(|e| format!("{}: {e}", args.data.display()))?;
     let start = start_parameters(&args)?;
@@ -235,12 +314,13 @@ fn write_results(
     for (k, e) in fit.estimates.iter().enumerate() {
         let _ = writeln!(
             json,
-            "    \"{}\": {{\"value\": {}, \"standard_error\": {}, \"interval\": [{}, {}]}}{}",
+            "    \"{}\": {{\"value\": {}, \"standard_error\": {}, \"interval\": [{}, {}], \"unit\": \"{}\"}}{}",
             e.parameter.name(),
             number(e.value),
             number(e.standard_error),
             number(e.interval.0),
             number(e.interval.1),
+            e.parameter.unit(),
             if k + 1 < fit.estimates.len() { "," } else { "" }
         );
     }
@@ -248,7 +328,7 @@ fn write_results(
     let rms: Vec<String> = names
         .iter()
         .zip(&fit.residual_rms)
-        .map(|(n, r)| format!("\"{n}\": {r:?}"))
+        .map(|(n, r)| format!("\"{n}\": {}", number(*r)))
         .collect();
     json.push_str(&rms.join(", "));
     json.push_str("},\n  \"parameters\": {");
@@ -310,8 +390,70 @@ fn main() -> ExitCode {
     match run() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("tirelag-fit: {e}\n{USAGE}");
+            eprintln!("tirelag-fit: {e}\n{USAGE}\n(tirelag-fit --help: every option and what it writes)");
             ExitCode::from(2)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parsed(args: &[&str]) -> Result<Command, String> {
+        parse_arguments(args.iter().map(|a| a.to_string()).collect())
+    }
+
+    #[test]
+    fn help_needs_no_data_file_and_wins_over_everything_else() {
+        for args in [
+            &["--help"][..],
+            &["-h"],
+            &["data.csv", "--free", "Calpha", "-h"],
+            &["--bogus", "--help"],
+        ] {
+            assert!(matches!(parsed(args), Ok(Command::Help)), "{args:?}");
+        }
+        assert!(parsed(&["data.csv"]).unwrap_err().contains("--free"));
+        assert!(
+            parsed(&["--free", "Calpha"])
+                .unwrap_err()
+                .contains("no data file")
+        );
+    }
+
+    #[test]
+    fn help_tells_every_option_every_parameter_and_every_file() {
+        let text = help();
+        for option in [
+            "--free",
+            "--model",
+            "--friction",
+            "--tir",
+            "--set",
+            "--bounds",
+            "--out",
+            "-h, --help",
+        ] {
+            assert!(text.contains(option), "{option} missing from\n{text}");
+        }
+        for p in Parameter::ALL {
+            assert!(
+                text.contains(&format!(" {} (", p.name())),
+                "{} missing from\n{text}",
+                p.name()
+            );
+        }
+        for file in [
+            "DIR/fit.json",
+            "DIR/fit.ssv",
+            "DIR/fit.csv",
+            "DIR/fit.png",
+            "stdout",
+            "stderr",
+        ] {
+            assert!(text.contains(file), "{file} missing from\n{text}");
+        }
+        assert!(text.lines().all(|l| l.len() <= 100), "{text}");
     }
 }

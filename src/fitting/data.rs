@@ -1,6 +1,7 @@
 //! Measured data: a CSV file with a `time` column, any of the inputs (vx, vy, steerRate,
 //! vsx, Fz; a missing one is 0, a missing Fz follows the nominal load) and any of the
-//! force outputs (Fx, Fy, Mz). Lines starting with `#` are comments.
+//! force outputs (Fx, Fy, Mz). Lines starting with `#` are comments. Any other column is an
+//! error: a misspelt input would otherwise be read as 0 and fitted as such.
 
 use crate::physics::{Input, Output};
 
@@ -36,6 +37,35 @@ fn output_name(output: Output) -> &'static str {
     }
 }
 
+/// The header's names, in the order the error message lists them.
+fn known_columns() -> impl Iterator<Item = &'static str> {
+    std::iter::once("time")
+        .chain(Input::ALL.map(input_name))
+        .chain(FITTED_OUTPUTS.map(output_name))
+}
+
+/// Every column must be one the fit reads, and only once.
+fn check_column_names(names: &[&str]) -> Result<(), String> {
+    for (k, name) in names.iter().enumerate() {
+        if !known_columns().any(|known| known == *name) {
+            return Err(format!(
+                "header column {} is '{name}', which is not a column the fit reads; expected time, \
+                 an input ({}) or a measured output ({}), spelt exactly so",
+                k + 1,
+                Input::ALL.map(input_name).join(", "),
+                FITTED_OUTPUTS.map(output_name).join(", ")
+            ));
+        }
+        if names[..k].contains(name) {
+            return Err(format!(
+                "header column {} is '{name}' again: each column may appear once",
+                k + 1
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl Measurements {
     /// Reads the CSV text; every error names the line.
     pub fn parse(text: &str) -> Result<Measurements, String> {
@@ -45,6 +75,7 @@ impl Measurements {
             .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
         let (_, header) = lines.next().ok_or("the file has no header line")?;
         let names: Vec<&str> = header.split(',').map(str::trim).collect();
+        check_column_names(&names)?;
         let column = |name: &str| names.iter().position(|n| *n == name);
         let time_column = column("time").ok_or("the header has no 'time' column")?;
         let mut rows: Vec<Vec<f64>> = Vec::new();
@@ -120,5 +151,28 @@ mod tests {
                 .unwrap_err()
                 .contains("line 3")
         );
+    }
+
+    #[test]
+    fn an_unknown_column_is_named_with_the_accepted_ones() {
+        let error = Measurements::parse("time,vx,vyy,Fy\n0,10,0.1,0\n0.01,10,0.1,12.5\n").unwrap_err();
+        assert!(error.contains("column 3 is 'vyy'"), "{error}");
+        assert!(
+            error.contains(
+                "expected time, an input (vx, vy, steerRate, vsx, Fz) or a measured output (Fx, Fy, Mz)"
+            ),
+            "{error}"
+        );
+        // Names are matched exactly: a capitalised one is unknown too.
+        let error = Measurements::parse("Time,Fy\n0,1\n0.1,2\n").unwrap_err();
+        assert!(error.contains("column 1 is 'Time'"), "{error}");
+        let error = Measurements::parse("time,vy,Fy,vy\n0,1,2,1\n0.1,1,3,1\n").unwrap_err();
+        assert!(error.contains("column 4 is 'vy' again"), "{error}");
+        // Every known column together is accepted.
+        let all = known_columns().collect::<Vec<_>>().join(",");
+        let rows = ["0", "0.1"].map(|t| format!("{t}{}", ",1".repeat(known_columns().count() - 1)));
+        let m = Measurements::parse(&format!("{all}\n{}\n{}\n", rows[0], rows[1])).unwrap();
+        assert!(m.inputs.iter().all(Option::is_some));
+        assert_eq!(m.output_names(), vec!["Fx", "Fy", "Mz"]);
     }
 }
