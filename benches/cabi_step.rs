@@ -1,5 +1,6 @@
 //! The cost of a full co-simulation step through the C ABI, as a native importer drives
-//! the packed binary (SPEC 6b): `cargo bench --bench cabi_step` after `./scripts/build-fmu`.
+//! the packed binary (docs/specification.md 6b): `cargo bench --bench cabi_step` after
+//! `./scripts/build-fmu`.
 //!
 //! Per step: fmi2SetReal of the 5 inputs, fmi2DoStep of 1 ms, fmi2GetReal of the 9
 //! outputs, on `target/fmu/TireLag.so` (or `TIRELAG_SO`) loaded with libloading. Two cases:

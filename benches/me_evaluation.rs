@@ -1,5 +1,6 @@
 //! The cost of one Model Exchange evaluation through the C ABI, as an importer's solver
-//! makes it (SPEC 6b): `cargo bench --bench me_evaluation` after `./scripts/build-fmu`.
+//! makes it (docs/specification.md 6b): `cargo bench --bench me_evaluation` after
+//! `./scripts/build-fmu`.
 //!
 //! Per evaluation: fmi2SetTime, fmi2SetContinuousStates of the 18 states, fmi2SetReal of
 //! the 5 inputs, fmi2GetDerivatives and fmi2GetEventIndicators, on the packed binary

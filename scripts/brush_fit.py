@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Derive the four-branch fit of the `Brush` friction law (SPEC section 4c).
+"""Derive the four-branch fit of the `Brush` friction law (docs/specification.md 4c).
 
 Each contact element is split into four parallel branches i = 1..4: a spring with the
 fraction w_i of the element's stiffness in series with a Coulomb slider whose limit is
@@ -204,7 +204,7 @@ def main():
     }
 
     np.set_printoptions(precision=17)
-    print("Brush four-branch fit (SPEC 4c): F(x)/Fmax = sum_i min(w_i x, phi_i)")
+    print("Brush four-branch fit (docs/specification.md 4c): F(x)/Fmax = sum_i min(w_i x, phi_i)")
     print(f"{'i':>2} {'stiffness_fraction w_i':>24} {'limit_fraction phi_i':>24} "
           f"{'breakpoint phi_i/w_i':>24}")
     for i in range(4):
@@ -255,7 +255,7 @@ def plot(path, grid, w, phi, breakpoints, err, i_max):
     ax1.set_ylabel("F / Fmax")
     ax1.set_ylim(0, 1.1)
     ax1.legend(loc="lower right")
-    ax1.set_title("Brush friction law: four parallel spring-slider branches (SPEC 4c)")
+    ax1.set_title("Brush friction law: four parallel spring-slider branches (docs/specification.md 4c)")
     ax1.grid(alpha=0.3)
 
     ax2.plot(grid, err, color="C3", label="F(x) - b(x)")

@@ -138,9 +138,9 @@ def read_model_description(path: pathlib.Path | str) -> ModelDescription:
             items = [Item(i.get("name"), i.get("value"), i.get("description", "")) for i in simple.iterfind("Item")]
         types[name] = (unit, simple.get("description", ""), items)
     if major == "2":
-        # TireLag's FMI 2.0 selectors are Integers (SPEC 3); their item names stand in a
-        # vendor annotation (what build.rs makes the FMI 3.0 Enumerations of) or, failing
-        # that, in the type's description.
+        # TireLag's FMI 2.0 selectors are Integers (docs/specification.md 3); their item
+        # names stand in a vendor annotation (what build.rs makes the FMI 3.0 Enumerations
+        # of) or, failing that, in the type's description.
         for enum in root.iterfind("VendorAnnotations/Tool/Fmi3/EnumerationType"):
             name = enum.get("name")
             if name in types and not types[name][2]:

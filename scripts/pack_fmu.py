@@ -44,8 +44,8 @@ DEFAULT_DESCRIPTION = {"2": ROOT / "modelDescription" / "modelDescription.xml"}
 
 # FMI 3.0's folder for icons and terminals is terminalsAndIcons/ (FMI 3.0, 3.0.1 and 3.0.2:
 # section 2.5, "Structure of the ZIP file", and section 2.4, "Terminals and Icons"); importers
-# look there. SPEC 1b names icons/, the folder of a draft of the standard: the same two files
-# are packed there too, until SPEC follows the standard (then drop "icons").
+# look there. The same two files are packed in icons/ too, the folder of a draft of the
+# standard that earlier versions of the contract named (docs/specification.md 1b).
 FMI3_ICON_FOLDERS = ("terminalsAndIcons", "icons")
 
 # What a library for each folder starts with: the object format and the CPU.

@@ -227,14 +227,14 @@ fn model_structure_lists_exactly_the_outputs_with_their_feedthrough() {
                 .extend(dependencies);
         }
     }
-    // DDT's damped forces sliding together on the friction ellipse (SPEC 4c) make Fx
+    // DDT's damped forces sliding together on the friction ellipse (docs/specification.md 4c) make Fx
     // depend on vy and Fy on vsx.
     let expected: Vec<Vec<&str>> = vec![
         vec!["Fx", "vx", "vy", "vsx", "Fz"],
         vec!["Fy", "vx", "vy", "vsx", "Fz"],
         vec!["Mz", "vx", "vy", "steerRate", "vsx", "Fz"],
         vec!["My", "vx", "vy", "vsx", "Fz"],
-        // The transient slips divide by the loaded relaxation lengths (SPEC 4b).
+        // The transient slips divide by the loaded relaxation lengths (docs/specification.md 4b).
         vec!["alphaT", "Fz"],
         vec!["kappaT", "Fz"],
         vec!["deflX"],

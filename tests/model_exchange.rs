@@ -1,4 +1,4 @@
-//! Model Exchange through the C ABI of the packed binary (SPEC 7b): the call sequence, the
+//! Model Exchange through the C ABI of the packed binary (docs/specification.md 7b): the call sequence, the
 //! state vector and event indicators, events, FMU state and directional derivatives.
 //! The agreement with Co-Simulation under a real solver is tested with fmpy
 //! (tests/python/test_model_exchange.py) and with the `fmi` crate (tests/fmi_importer.rs).

@@ -1,4 +1,4 @@
-//! SPEC 6b: no heap allocation in fmi2SetReal, fmi2GetReal or fmi2DoStep after the first
+//! docs/specification.md 6b: no heap allocation in fmi2SetReal, fmi2GetReal or fmi2DoStep after the first
 //! step, nor in their FMI 3.0 counterparts. A counting global allocator watches this test's thread while 10,000 full steps
 //! of each model (5 inputs set with vx and Fz changing every step, a step, 9 outputs
 //! read), without a friction limit, with Brush sticking and with Brush sliding, run through

@@ -1,4 +1,4 @@
-//! Every binary packed in the two FMUs, read from its file (SPEC 1b): each exports every FMI
+//! Every binary packed in the two FMUs, read from its file (docs/specification.md 1b): each exports every FMI
 //! function of the Linux x86_64 library under its plain C name, needs only the operating
 //! system's own libraries, and is built for its platform. The runnable ones are also run
 //! (tests/python/test_platforms.py); the macOS ones cannot run here, so these tables are

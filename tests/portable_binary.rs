@@ -1,4 +1,4 @@
-//! The packed libraries load on every Linux from the manylinux2014 baseline on (SPEC 1,
+//! The packed libraries load on every Linux from the manylinux2014 baseline on (docs/specification.md 1,
 //! 1b): read from the ELF files inside the FMUs themselves, the x86_64 one (`linux64`,
 //! `x86_64-linux`) and the aarch64 one (`aarch64-linux`, FMI 3.0 only) need no glibc
 //! symbol version above GLIBC_2.17 and no library but libc, libm, libdl, libpthread, librt,

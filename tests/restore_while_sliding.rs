@@ -3,7 +3,7 @@
 //! their rates) goes on bit for bit as the tire it was taken from, while it slides. The
 //! inputs are held for tens of steps at a time, so that the tire it was taken from
 //! starts steps from the modes its last step prepared, where the restored one decides
-//! them itself (SPEC 7).
+//! them itself (docs/specification.md 7).
 
 use tirelag::physics::{FrictionLaw, Input, ModelKind, Parameter, Parameters, Tire};
 

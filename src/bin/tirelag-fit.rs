@@ -1,4 +1,5 @@
-//! Fits chosen parameters of a chosen model and friction law to a measured run (SPEC 10).
+//! Fits chosen parameters of a chosen model and friction law to a measured run
+//! (docs/specification.md 10).
 //!
 //! ```text
 //! tirelag-fit DATA.csv --free Calpha,sigmaY [--model RLT] [--friction Unlimited]

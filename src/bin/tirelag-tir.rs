@@ -1,5 +1,5 @@
-//! Prints how a tire property file (`.tir`) maps to TireLag's parameters (SPEC 10) and
-//! writes the mapping as an SSP parameter set.
+//! Prints how a tire property file (`.tir`) maps to TireLag's parameters
+//! (docs/specification.md 10) and writes the mapping as an SSP parameter set.
 //!
 //! ```text
 //! tirelag-tir FILE.tir [--ssv OUT.ssv]

@@ -1,8 +1,9 @@
-//! Fitting parameters to measurements (SPEC 10): a measured run ([`data`]) and a chosen
-//! model, law and set of free parameters with bounds; bounded least squares
-//! ([`least_squares`]) over simulations by the FMU's exact step ([`Tire::step`], the core
-//! the FMU steps with, in-process: a run of a few thousand samples takes a fraction of a
-//! millisecond); the values with confidence intervals from the output sensitivities.
+//! Fitting parameters to measurements (docs/specification.md 10): a measured run
+//! ([`data`]) and a chosen model, law and set of free parameters with bounds; bounded
+//! least squares ([`least_squares`]) over simulations by the FMU's exact step
+//! ([`Tire::step`], the core the FMU steps with, in-process: a run of a few thousand
+//! samples takes a fraction of a millisecond); the values with confidence intervals from
+//! the output sensitivities.
 //!
 //! A run is simulated as the data are sampled: the inputs of row k are held from its time
 //! to the next row's, and row k's outputs are the FMU's at its time with row k's inputs.

@@ -817,7 +817,7 @@ pub extern "C" fn fmi3GetNominalsOfContinuousStates(
 }
 
 /// The fixed sizes of the Model Exchange arrays (the largest layout over the models and
-/// laws, SPEC 7b), known from instantiation on.
+/// laws, docs/specification.md 7b), known from instantiation on.
 fn count(instance: fmi3Instance, function: &str, n: *mut usize, value: usize) -> fmi3Status {
     with_instance(instance, function, |_| {
         *unsafe { out(n, "the count")? } = value;

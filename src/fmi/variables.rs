@@ -70,7 +70,7 @@ pub enum Role {
     ModelChoice,
     /// The `friction` selector (declared type TireFriction).
     FrictionChoice,
-    /// `tirFile`: the tire property file (SPEC 10).
+    /// `tirFile`: the tire property file (docs/specification.md 10).
     TireDataFile,
     /// Entry k of the continuous state vector (Model Exchange).
     ContinuousState(usize),

@@ -1,4 +1,5 @@
-//! The four-branch split of a contact element for the `Brush` friction law (SPEC 4c).
+//! The four-branch split of a contact element for the `Brush` friction law
+//! (docs/specification.md 4c).
 //!
 //! Each contact element is split into four parallel branches. Branch `i` is a spring (and,
 //! where the element has one, a damper) with the fraction `w_i` of the element's stiffness
@@ -84,7 +85,7 @@ pub const BRUSH_BRANCHES: [Branch; 4] = [
 ];
 
 /// Below this normalised load (`Calpha |alpha| / Fmax`) every branch sticks and the
-/// steady-state force is exactly the linear `Calpha alpha` (SPEC 4c).
+/// steady-state force is exactly the linear `Calpha alpha` (docs/specification.md 4c).
 pub const LINEAR_LIMIT: f64 = 0.2;
 
 /// The achieved `max_x |F(x) - b(x)|` (in units of `Fmax`), reached at `x = 0.2`:

@@ -1,4 +1,5 @@
-//! Load dependence (SPEC 4b): how the normal load stretches the relaxation lengths.
+//! Load dependence (docs/specification.md 4b): how the normal load stretches the
+//! relaxation lengths.
 //!
 //! With `x = Fz/Fz0` and `c2 = calphaLoadPeak`, the slip stiffnesses follow the load,
 //! `Calpha(Fz) = Calpha x (1 + 1/c2^2)/(1 + x^2/c2^2)` (Pacejka's sin(2 atan) law,
@@ -24,7 +25,8 @@ impl InverseLengthFactors {
     };
 }
 
-/// Where the tire operates: the quantities its system matrices depend on (SPEC 4, 4b).
+/// Where the tire operates: the quantities its system matrices depend on
+/// (docs/specification.md 4, 4b).
 ///
 /// Speed and load enter every model the same way: the relaxation lengths scale with the
 /// load, lateral ones by `Calpha(Fz)/Calpha`, longitudinal ones by `Fz/Fz0` (the

@@ -1,9 +1,9 @@
 //! The tire-lag physics: plain Rust, no FFI, nothing about FMI.
 //!
-//! Conventions (SPEC section 2): wheel frame W with x forward along the wheel heading,
-//! y to the left, z up. `rho = |vx|` is the rolling speed; every relaxation term uses it,
-//! so reverse driving is symmetric and no equation divides by the speed. Forces and
-//! moments are those the tire applies to the wheel hub, in N and N.m.
+//! Conventions (docs/specification.md 2): wheel frame W with x forward along the wheel
+//! heading, y to the left, z up. `rho = |vx|` is the rolling speed; every relaxation term
+//! uses it, so reverse driving is symmetric and no equation divides by the speed. Forces
+//! and moments are those the tire applies to the wheel hub, in N and N.m.
 //!
 //! Each model ([`models`]) is a linear time-invariant system for a given `vx`:
 //! `dx/dt = A x + B u`, `y = C x + D u` with `u = [vy, steerRate, vsx]`. The [`stepper`]

@@ -1,6 +1,7 @@
-//! From a tire property file to TireLag's parameters (SPEC 10): each value at the nominal
-//! load, zero camber and nominal pressure, with the scaling factors (`L...`) 1 and PKY4 2
-//! where the file has none. Each mapped value keeps the formula and the keys it came from.
+//! From a tire property file to TireLag's parameters (docs/specification.md 10): each
+//! value at the nominal load, zero camber and nominal pressure, with the scaling factors
+//! (`L...`) 1 and PKY4 2 where the file has none. Each mapped value keeps the formula and
+//! the keys it came from.
 
 use std::fmt;
 

@@ -1,7 +1,7 @@
-//! Tire data in (SPEC 10): MF-Tyre/Pacejka property files (`.tir`) read ([`tir`]) and
-//! mapped to TireLag's parameters ([`mapping`]), and parameter sets written for tools that
-//! take them ([`ssv`]). Plain Rust, no FFI: the FMU reads a file given in `tirFile` with
-//! it, and the `tirelag-tir` command prints a file's mapping.
+//! Tire data in (docs/specification.md 10): MF-Tyre/Pacejka property files (`.tir`) read
+//! ([`tir`]) and mapped to TireLag's parameters ([`mapping`]), and parameter sets written
+//! for tools that take them ([`ssv`]). Plain Rust, no FFI: the FMU reads a file given in
+//! `tirFile` with it, and the `tirelag-tir` command prints a file's mapping.
 
 pub mod mapping;
 pub mod ssv;

@@ -30,7 +30,7 @@ _OUT_ALL = [ref.OUTPUT_VR[n] for n in ref.OUTPUTS]
 
 
 def has_friction(model_description):
-    """True if the FMU declares the friction selector of SPEC 4c."""
+    """True if the FMU declares the friction selector of docs/specification.md 4c."""
     return any(v.name == "friction" for v in model_description.modelVariables)
 
 
@@ -49,7 +49,7 @@ class Tire:
                  vx=0.0, vy=0.0, steerRate=0.0, vsx=0.0, Fz=None, name="tire",
                  friction="Unlimited"):
         """friction: "Unlimited" (default, so the linear tests stay linear), "Coulomb" or
-        "Brush" (SPEC 4c); set only if the FMU declares the `friction` variable."""
+        "Brush" (docs/specification.md 4c); set only if the FMU declares the `friction` variable."""
         from fmpy.fmi2 import FMU2Slave
 
         self.md = model_description

@@ -1,6 +1,6 @@
 """Helpers for the FMI 3.0 tests (test_fmi3.py and its worker, fmi3_state_worker.py).
 
-The FMI 3.0 FMU is <repo>/target/fmu/fmi3/TireLag.fmu (SPEC 7c): the same library as the
+The FMI 3.0 FMU is <repo>/target/fmu/fmi3/TireLag.fmu (docs/specification.md 7c): the same library as the
 FMI 2.0 FMU, driven here through fmpy.fmi3 (FMU3Slave, FMU3Model). What the FMI 2.0
 tests already define (value references, parameter sets, input sequences, the FMI 2.0
 driver) is taken from fmi4_common; this module adds only what FMI 3.0 needs:

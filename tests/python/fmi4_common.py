@@ -32,7 +32,7 @@ FRICTION_VR = 121
 FRICTIONS = {"Unlimited": 1, "Coulomb": 2, "Brush": 3}
 FRICTION_PARAMETER_VR = {"muX": 122, "muY": 123, "muLoadSensitivity": 124, "boreRadius": 125}
 ALL_PARAMETER_VR = {**PARAMETER_VR, **FRICTION_PARAMETER_VR}
-# Model Exchange: the continuous states (SPEC 7b) and event indicators, both versions.
+# Model Exchange: the continuous states (docs/specification.md 7b) and event indicators, both versions.
 N_STATES = 18
 N_INDICATORS = 9
 STATE_NAMES = ([f"tireState{i}" for i in range(1, 7)]

@@ -1,6 +1,6 @@
-"""Independent reference for the friction limit of SPEC section 4c (stick and slide).
+"""Independent reference for the friction limit of docs/specification.md 4c (stick and slide).
 
-Written from the SPEC text (sections 3, 4, 4b, 4c) and the friction semantics agreed for
+Written from docs/specification.md 3, 4, 4b, 4c and the friction semantics agreed for
 the implementation (spelled out below), not from the Rust code; the only numbers taken
 from the Rust source are the Brush branch fractions (src/physics/brush.rs BRUSH_BRANCHES,
 derived by scripts/brush_fit.py).
@@ -10,7 +10,7 @@ run) or simulate(model, friction, params, vx, U, h, Fz) (like reference.simulate
 
 The model
 ---------
-Each model touches the road through contact elements (SPEC 4c):
+Each model touches the road through contact elements (docs/specification.md 4c):
 
   model        lateral element (y)             longitudinal element (x)      yaw element
   RLT          spring C_y on uY                spring C_x on uX              -
@@ -50,11 +50,11 @@ branch i of DDT's yaw element is a scalar group, |M_i| <= phi_i M_max.
   integration still stops where f(T) crosses 1 (a kink) to keep DOP853 at full order.
   Scalar yaw group: F = clamp(T, -phi_i M_max, phi_i M_max).
 
-Limits (SPEC 4c, Fz held over the step): mu(Fz) = mu max(0, 1 + muLoadSensitivity (Fz/Fz0 - 1)),
+Limits (docs/specification.md 4c, Fz held over the step): mu(Fz) = mu max(0, 1 + muLoadSensitivity (Fz/Fz0 - 1)),
 Fmax_x = muX(Fz) Fz, Fmax_y = muY(Fz) Fz, M_max = boreRadius muY(Fz) Fz.
 
 Loads on the rest of the model are the branch sums (SecondOrder/RingBody: the contact
-mass feels sum_i w_i kT b_i); the outputs are those of SPEC 4 with the model's deflection
+mass feels sum_i w_i kT b_i); the outputs are those of docs/specification.md 4 with the model's deflection
 states replaced by U and, for DDT, the element forces by the (limited) branch forces F.
 `Unlimited` is the linear model (one branch, no limit); it must agree with
 reference.simulate, which this module's self-checks use.
@@ -70,7 +70,7 @@ groups' modes are re-checked. Each piece is thus integrated on a smooth right-ha
 A sliding spring group is put back exactly on its ellipse (radial scaling of its
 deflections, a change of the order of the integration tolerance) at the end of every
 piece. If Fz changes so that a spring group is outside its new limit, it is put on the
-limit by the same radial scaling (the SPEC's "its force is put on the limit"; a choice,
+limit by the same radial scaling (docs/specification.md 4c: "its force is put on the limit"; a choice,
 only exercised by test_matches_the_reference_with_a_varying_load). Accuracy: the FMU and
 this reference agree to ~1e-12 of Fmax wherever the FMU finds every switch.
 
@@ -95,7 +95,7 @@ FRICTION_NAMES = list(FRICTION_LAWS)
 FRICTION_VR = 121
 FRICTION_PARAMETER_VR = {"muX": 122, "muY": 123, "muLoadSensitivity": 124, "boreRadius": 125}
 FRICTION_DEFAULTS = {"muX": 0.8, "muY": 0.8, "muLoadSensitivity": -0.1, "boreRadius": 0.1}
-FRICTION_DEFAULT_LAW = "Brush"   # the FMU's start value (SPEC 3)
+FRICTION_DEFAULT_LAW = "Brush"   # the FMU's start value (docs/specification.md 3)
 
 # (w_i, phi_i) copied from src/physics/brush.rs BRUSH_BRANCHES (breakpoints phi/w =
 # 0.2, 0.787, 1.454, 2.320; both columns sum to 1).
@@ -129,7 +129,7 @@ def parameters(**overrides) -> dict:
 # --------------------------------------------------------------------------- limits
 
 def mu_at(p: dict, mu: float, Fz: float) -> float:
-    """SPEC 4c: mu(Fz) = mu max(0, 1 + muLoadSensitivity (Fz/Fz0 - 1))."""
+    """docs/specification.md 4c: mu(Fz) = mu max(0, 1 + muLoadSensitivity (Fz/Fz0 - 1))."""
     return mu * max(0.0, 1.0 + p["muLoadSensitivity"] * (Fz / p["Fz0"] - 1.0))
 
 
@@ -425,7 +425,7 @@ class FrictionReferenceTire:
         return dz
 
     def _contact_mass_rates(self, Z, u, F, dZ):
-        """SPEC 4 contact-mass equations, the tread force being sum_i F_i:
+        """docs/specification.md 4 contact-mass equations, the tread force being sum_i F_i:
         deta/dt = w - vy, m dw/dt = -F_tread - k_y eta - d (w - vy); RingBody also
         dxr/dt = wx - vsx, m_x dwx/dt = -F_tread,x - k_x xr - ringDampingX (wx - vsx)."""
         vy, _, vsx = u

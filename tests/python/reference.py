@@ -1,13 +1,13 @@
-"""Independent reference implementation of the TireLag models (SPEC sections 3-5).
+"""Independent reference implementation of the TireLag models (docs/specification.md 3-5).
 
 Everything here is written from the project specification only:
 
 * ``parameters()``    -- the default parameter set (the modelDescription start values),
-* ``derived()``       -- the derived stiffnesses of SPEC section 3,
-* ``system()``        -- A, B, C, D of SPEC section 4 for one model at one speed,
+* ``derived()``       -- the derived stiffnesses of docs/specification.md 3,
+* ``system()``        -- A, B, C, D of docs/specification.md 4 for one model at one speed,
 * ``zoh()/foh()``     -- exact discretisation by the matrix exponential of an augmented matrix,
 * ``simulate()``      -- exact stepping of piecewise-constant or piecewise-linear inputs,
-* ``transfer()``      -- the transfer functions of SPEC section 5, evaluated at complex s
+* ``transfer()``      -- the transfer functions of docs/specification.md 5, evaluated at complex s
                          (written from the section 5 formulas, *not* from A, B, C, D).
 
 State vectors (all start at 0):
@@ -61,7 +61,7 @@ STATES = {
     "RingBody": ["eta", "uT", "w", "xr", "uTx", "wx"],
 }
 
-# SPEC section 9: snowblower tire (Koo & Tan Table 1, per tire)
+# docs/specification.md 9: snowblower tire (Koo & Tan Table 1, per tire)
 SNOWBLOWER = {"Calpha": 350000.0, "sigmaY": 1.0, "sigmaPsi": 0.45, "dampingY": 9000.0,
               "stiffnessPsi": 40000.0}
 
@@ -78,7 +78,7 @@ def parameters(**overrides) -> dict:
 
 
 def derived(p: dict) -> dict:
-    """Derived stiffnesses of SPEC section 3 (never separate parameters)."""
+    """Derived stiffnesses of docs/specification.md 3 (never separate parameters)."""
     return {
         "C_y": p["Calpha"] / p["sigmaY"],          # Koo & Tan eq 16
         "C_x": p["Ckappa"] / p["sigmaX"],
@@ -90,13 +90,13 @@ def derived(p: dict) -> dict:
 
 
 def cornering_stiffness_at(p: dict, Fz: float) -> float:
-    """SPEC 4b: Calpha(Fz) = Calpha x (1 + 1/c2^2)/(1 + x^2/c2^2), x = Fz/Fz0."""
+    """docs/specification.md 4b: Calpha(Fz) = Calpha x (1 + 1/c2^2)/(1 + x^2/c2^2), x = Fz/Fz0."""
     x, c2 = Fz / p["Fz0"], p["calphaLoadPeak"]
     return p["Calpha"] * x * (1.0 + 1.0 / c2**2) / (1.0 + x**2 / c2**2)
 
 
 def length_factors(p: dict, Fz) -> tuple:
-    """How the load stretches the relaxation lengths (SPEC 4b): lateral lengths by
+    """How the load stretches the relaxation lengths (docs/specification.md 4b): lateral lengths by
     Calpha(Fz)/Calpha, longitudinal ones by Ckappa(Fz)/Ckappa = Fz/Fz0; nominal (1, 1)
     when Fz is None or the wheel is off the ground."""
     if Fz is None or Fz <= 0.0:
@@ -107,7 +107,7 @@ def length_factors(p: dict, Fz) -> tuple:
 # --------------------------------------------------------------------------- state space
 
 class _Builder:
-    """Fills A, B and output rows by state *name*, so the equations read like the SPEC."""
+    """Fills A, B and output rows by state *name*, so the equations read like docs/specification.md 4."""
 
     def __init__(self, states):
         self.states = list(states)
@@ -151,9 +151,9 @@ def _add(*rows):
 
 
 def system(model: str, p: dict, vx: float, lifted_off: bool = False, Fz=None):
-    """A, B, C, D of SPEC section 4 (u = [vy, steerRate, vsx], y in OUTPUTS order) at the
+    """A, B, C, D of docs/specification.md 4 (u = [vy, steerRate, vsx], y in OUTPUTS order) at the
     normal load Fz (None: nominal). The stiffnesses stay at their Fz0 values; the
-    relaxation lengths stretch with the load (SPEC 4b)."""
+    relaxation lengths stretch with the load (docs/specification.md 4b)."""
     q = derived(p)
     rho = abs(vx)
     f_lat, f_long = length_factors(p, None if lifted_off else Fz)
@@ -321,10 +321,10 @@ def state_space_response(model, p, vx, s):
     return out
 
 
-# --------------------------------------------------------------------------- SPEC section 5
+# --------------------------------------------------------------------------- docs/specification.md 5
 
 def transfer(model: str, p: dict, vx: float, s):
-    """Transfer functions of SPEC section 5 at Laplace variable(s) s.
+    """Transfer functions of docs/specification.md 5 at Laplace variable(s) s.
 
     Returns a dict with complex arrays for
       'Fy/vy', 'Fy/steerRate', 'Mz/vy', 'Mz/steerRate', 'Fx/vsx', 'My/vsx'.

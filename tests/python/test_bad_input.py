@@ -1,4 +1,4 @@
-"""Bad input (SPEC section 8) and the Co-Simulation status functions (section 7).
+"""Bad input (docs/specification.md 8) and the Co-Simulation status functions (section 7).
 
 Every bad call must return fmi2Error, log an error message that names the variable and
 the value, and leave the instance as it was: getReal shows the previous values, and the
@@ -220,7 +220,7 @@ def test_fixed_parameter_after_initialisation_is_refused(slaves, log, starts, na
 
 @pytest.mark.parametrize("name", list(fc.ALL_PARAMETER_VR))
 def test_fixed_parameter_set_to_its_value_after_initialisation_is_accepted(slaves, log, name):
-    """SPEC 8: importers such as the FMU Compliance Checker set every column of their input
+    """docs/specification.md 8: importers such as the FMU Compliance Checker set every column of their input
     file, parameters included, before every step; the value in use is harmless."""
     s, twin, t = stepping_pair(slaves, log, "RingBody")
     vr = fc.ALL_PARAMETER_VR[name]
@@ -277,7 +277,7 @@ def test_selector_after_initialisation_is_refused_unless_unchanged(slaves, log, 
     log.clear()
     status, _ = fc.status_of(s.setInteger, [vr], [value])
     if value == running:
-        # The selection in use, set again (SPEC 8): accepted, nothing changes.
+        # The selection in use, set again (docs/specification.md 8): accepted, nothing changes.
         assert status == fc.FMI2_OK and not log.errors(), log.text()
     else:
         assert_error_logged(log, status, [name], float(value), f"{name} = {value} after initialisation")

@@ -1,4 +1,4 @@
-"""Derivatives at the FMI interface (SPEC sections 6 and 7):
+"""Derivatives at the FMI interface (docs/specification.md 6 and 7):
 
 * fmi2GetDirectionalDerivative: exact d outputs / d inputs at the current state, checked
   against central finite differences of fmi2GetReal (outputs are direct functions of the
@@ -94,7 +94,7 @@ def test_directional_derivatives_match_central_differences(slaves, model, vx):
 
 @pytest.mark.parametrize("model", MODELS)
 def test_directional_derivatives_equal_feedthrough_matrix(slaves, starts, model):
-    """d outputs / d (vy, steerRate, vsx) is the D matrix of SPEC section 4, whatever the
+    """d outputs / d (vy, steerRate, vsx) is the D matrix of docs/specification.md 4, whatever the
     state: written out here from the equations."""
     s, _ = warmed_up(slaves, model, 7.0)
     J = np.array([s.getDirectionalDerivative(fc.OUT_VRS, [vr], [1.0]) for vr in fc.DRIVING_VRS]).T

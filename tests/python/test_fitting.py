@@ -1,4 +1,4 @@
-"""Fitting parameters to measurements (SPEC 10), on the synthetic experiments of
+"""Fitting parameters to measurements (docs/specification.md 10), on the synthetic experiments of
 examples/fit_synthetic.py: data made by the FMU from known parameters, with Gaussian noise.
 
 a. Coverage: over DRAWS noise draws of each experiment, the stated 95 % interval of every

@@ -1,4 +1,4 @@
-"""The FMI 3.0 FMU (SPEC 7c), driven by fmpy.
+"""The FMI 3.0 FMU (docs/specification.md 7c), driven by fmpy.
 
 target/fmu/fmi3/TireLag.fmu is the same library as the FMI 2.0 FMU with FMI 3.0
 Co-Simulation and Model Exchange. These tests hold it to the FMI 2.0 FMU and to the
@@ -770,7 +770,7 @@ def _loaded_library(fmu3, name):
 def test_refused_instantiations_return_null(fmu3):
     """Raw fmi3Instantiate* calls (fmpy's instantiate raises on NULL): Co-Simulation with
     eventModeUsed = true, fmi3InstantiateScheduledExecution, and Co-Simulation and Model
-    Exchange with a wrong instantiationToken or an empty instance name (SPEC 7) return
+    Exchange with a wrong instantiationToken or an empty instance name (docs/specification.md 7) return
     NULL, each with an error message
     through the logMessage callback (eventModeUsed: a message that names it, or says
     "event mode"). The same
@@ -918,7 +918,7 @@ def test_get_set_of_unused_types_with_no_value_references_is_ok(new3):
 
 
 def test_directional_and_output_derivatives_equal_fmi2(new2, new3):
-    """SPEC 7c (the same derivatives): after the same 150 steps (sliding, Brush),
+    """docs/specification.md 7c (the same derivatives): after the same 150 steps (sliding, Brush),
     fmi3GetDirectionalDerivative of the nine outputs with respect to each input and
     fmi3GetOutputDerivatives (order 1) equal the FMI 2.0 FMU's
     (fmi2GetDirectionalDerivative, fmi2GetRealOutputDerivatives without input

@@ -1,5 +1,5 @@
 """FMU state: get/set/free, serialize/deserialize in and across processes, corrupt
-states, and fmi2Reset (SPEC section 7 and 8).
+states, and fmi2Reset (docs/specification.md 7 and 8).
 
 The serialized state holds parameters, model, inputs, input rates, states, time and the
 phase, so a restored instance must continue bit-identically (==, not approximately).

@@ -1,8 +1,8 @@
-"""What the two FMUs carry beside their model description and binaries (SPEC 1b).
+"""What the two FMUs carry beside their model description and binaries (docs/specification.md 1b).
 
 For target/fmu/TireLag.fmu (FMI 2.0) and target/fmu/fmi3/TireLag.fmu (FMI 3.0):
 - the documentation (documentation/_main.html, documentation/index.html) has every section
-  SPEC 1b asks for, and its variable tables name every variable of the packed model
+  docs/specification.md 1b asks for, and its variable tables name every variable of the packed model
   description (read here by fmpy, not by the packer's own reader) with its unit,
   causality, variability, value reference and start value, and the selectors' items;
 - its fmpy example runs against the FMU and prints what the page says; its C master

@@ -1,4 +1,4 @@
-"""Frequency responses of every model against SPEC section 5 (0.05 dB, 0.2 degrees).
+"""Frequency responses of every model against docs/specification.md 5 (0.05 dB, 0.2 degrees).
 
 Sinusoidal inputs are ramped between samples h = period/200 apart with input derivatives
 (exact for the piecewise-linear input). Linear interpolation scales the fundamental of a
@@ -6,12 +6,12 @@ sampled sinusoid by exactly sinc^2(omega h/2) (about 1e-4 here); the expected va
 that factor. The measured phasor comes from a least-squares fit of a cubic trend + cos +
 sin over two whole periods after the transients have settled.
 
-Transfer functions (SPEC section 5 and the section 4 output equations):
+Transfer functions (docs/specification.md 5 and the output equations of 4):
   Fy/vy = -Z,                 Mz/vy = trail Z,
   DDT:  Fy/r = -Z vx/(s + rho/sigmaPsi),
         Mz/r = -(stiffnessPsi + dampingPsi s)/(s + rho/sigmaPsi) - trail Fy/r,
   Fx/vsx = -Zx, My/vsx = Re Zx (RLT, DDT, SecondOrder: My = -Re Fx),
-  RingBody circumferential: Fx/vsx and My/vsx as given in SPEC section 5.
+  RingBody circumferential: Fx/vsx and My/vsx as given in docs/specification.md 5.
 """
 
 import math
@@ -35,7 +35,7 @@ def _check(measured, expected, label, failures):
     if not (abs(dg) <= GAIN_DB and abs(dph) <= PHASE_DEG):
         failures.append(f"{label}: gain error {dg:+.4f} dB, phase error {dph:+.4f} deg "
                         f"(measured |G| {abs(measured):.6g} angle {math.degrees(np.angle(measured)):.3f}, "
-                        f"SPEC |G| {abs(expected):.6g} angle {math.degrees(np.angle(expected)):.3f})")
+                        f"docs/specification.md 5: |G| {abs(expected):.6g} angle {math.degrees(np.angle(expected)):.3f})")
 
 
 @pytest.mark.parametrize("vx", SPEEDS)
@@ -99,7 +99,7 @@ def test_no_steering_path_outside_ddt(make_tire, model, vx):
 
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_reference_transfer_functions_match_state_space(model):
-    """Self-check of the test reference: the SPEC section 5 formulas equal
+    """Self-check of the test reference: the docs/specification.md 5 formulas equal
     C (sI - A)^-1 B + D of the section 4 equations (two independent derivations)."""
     p = ref.parameters()
     s = 1j * math.tau * FREQS

@@ -1,8 +1,8 @@
-"""Friction limit: stick and slide (SPEC 4c, the friction lines of 5, and 6).
+"""Friction limit: stick and slide (docs/specification.md 4c, the friction lines of 5, and 6).
 
 Against the FMU (all with the friction law set through the `friction` selector):
 
-a. Unlimited is the linear model of SPEC 4/4b (reference.simulate, 1e-9), however large the slip.
+a. Unlimited is the linear model of docs/specification.md 4/4b (reference.simulate, 1e-9), however large the slip.
 b. Coulomb saturates exactly: steady Fy = sign(alpha) min(Calpha(Fz)|alpha|, muY(Fz) Fz) and
    Fx = sign(kappa) min(Ckappa(Fz)|kappa|, muX(Fz) Fz) to 1e-9, at 0.5, 1 and 1.5 Fz0.
 c. Brush steady state: within 2 % of Fmax of the brush curve, equal (1e-9) to the four-branch
@@ -53,7 +53,7 @@ def make_friction_tire(model_description, unzipdir):
     """make_friction_tire(model, friction, params=None, vx=..., Fz=...) -> conftest.Tire
     with that friction law and parameters (friction ones included)."""
     if not has_friction(model_description):
-        pytest.fail("the FMU declares no `friction` variable (SPEC 4c): rebuild it")
+        pytest.fail("the FMU declares no `friction` variable (docs/specification.md 4c): rebuild it")
     tires = []
 
     def factory(model, friction, params=None, **inputs):
@@ -88,7 +88,7 @@ def test_unlimited_is_the_linear_model(make_friction_tire, model):
 
 
 def test_friction_variables_are_declared(model_description):
-    """SPEC 3: `friction` Integer VR 121, start 3 (Brush), fixed parameter; muX, muY (0.8),
+    """docs/specification.md 3: `friction` Integer VR 121, start 3 (Brush), fixed parameter; muX, muY (0.8),
     muLoadSensitivity (-0.1), boreRadius (0.1 m) are Real parameters VR 122..125."""
     variables = {v.name: v for v in model_description.modelVariables}
     assert "friction" in variables, "the FMU declares no `friction` variable"
@@ -322,7 +322,7 @@ def test_closed_cycle_absorbs_energy(make_friction_tire, model, law, radius):
 @pytest.mark.parametrize("ratio", [1.0, 1.5])
 @pytest.mark.parametrize("law", ["Unlimited", "Coulomb", "Brush"])
 def test_ddt_standstill_steering_moment(make_friction_tire, law, ratio):
-    """Wheel-loader snake steering (SPEC 9): DDT at vx = 0, steer angle 40 deg sin(2 pi 0.2 t)
+    """Wheel-loader snake steering (docs/specification.md 9): DDT at vx = 0, steer angle 40 deg sin(2 pi 0.2 t)
     (steerRate its derivative, ramped between 1 ms samples), stiffnessPsi 45000,
     dampingPsi 400, two periods. vy = vx = 0, so Fy = 0 and the trail adds nothing:
     Unlimited: max |Mz| = 40 deg sqrt(K^2 + (D omega)^2) ~ 45000 * 0.698 = 31.4 kN.m (1 %);
@@ -372,7 +372,7 @@ def load_scales(p, Fz):
 def test_long_sticking_steps_stay_exact(make_friction_tire, model, law, h):
     """Every element sticking (3 % of Fmax at 1.5 Fz0) with steps of 1 and 5 s, long
     against the tire's time constants: the forces are the linear steady state
-    Calpha(Fz) alpha to 1e-9 at every step (SPEC 6), as with the Unlimited law."""
+    Calpha(Fz) alpha to 1e-9 at every step (docs/specification.md 6), as with the Unlimited law."""
     Fz, vx = 1.5 * FZ0, 10.0
     p = ref.parameters()
     alpha = 0.03 * fr.limits(fr.parameters(), Fz)["y"] / ref.cornering_stiffness_at(p, Fz)
@@ -420,7 +420,7 @@ def test_step_size_independence_random_history(make_friction_tire, model, law):
     """random_history (500 steps of 10 ms; inputs jump every 30 ms, vx included) with the
     friction parameters of test_matches_the_reference, in 10 ms steps and in 0.1 ms steps
     (100 per 10 ms, same held inputs): Fx, Fy, Mz, My agree at every 10 ms within 1e-6 of
-    their friction scale (SPEC 6). Catches slides that start and end inside one step
+    their friction scale (docs/specification.md 6). Catches slides that start and end inside one step
     (a sticking element whose force touches the limit only briefly after an input jump),
     which a check of the limit at the step's end alone would miss."""
     vx, U = random_history((model, law))
@@ -470,7 +470,7 @@ def test_matches_the_reference(make_friction_tire, model, law):
 def test_matches_the_reference_with_a_varying_load(make_friction_tire, model):
     """Brush, the first 120 steps of reference_scenario with Fz = Fz0 (0.9 + 0.3 sin(2 pi 1.3 t))
     held over each step: the limits and lengths change every step, and elements outside
-    their shrinking limit are put on it (SPEC 4c); every output equals the reference to 1e-7."""
+    their shrinking limit are put on it (docs/specification.md 4c); every output equals the reference to 1e-7."""
     vx, U, h = reference_scenario(120)
     t = (np.arange(120) + 0.5) * h
     Fz = FZ0 * (0.9 + 0.3 * np.sin(math.tau * 1.3 * t))

@@ -1,4 +1,4 @@
-"""Physical identities of SPEC section 5 with the snowblower tire of SPEC section 9.
+"""Physical identities of docs/specification.md 5 with the snowblower tire of docs/specification.md 9.
 
 * every model: steady state Fy = Calpha alpha, Fx = Ckappa kappa; static stiffness C_y, C_x;
 * at rho = 0: RLT is an undamped spring, DDT, SecondOrder and RingBody are damped

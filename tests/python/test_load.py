@@ -1,4 +1,4 @@
-"""Load dependence (SPEC 4b), every model, against the SPEC's formulas:
+"""Load dependence (docs/specification.md 4b), every model, against its formulas:
 
 * Calpha(Fz) = Calpha x (1 + 1/c2^2)/(1 + x^2/c2^2), x = Fz/Fz0: 1.25 Calpha at 2 Fz0 and
   0.588 Calpha at 0.5 Fz0 for c2 = 2; Ckappa(Fz) = Ckappa x; reached in steady state;
@@ -70,7 +70,7 @@ def test_rlt_lateral_time_constant_is_the_loaded_relaxation_length_over_speed(ma
 
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_an_unset_load_follows_the_nominal_load(make_tire, model):
-    """Fz starts at Fz0 (SPEC 3): a tire with another Fz0 and no Fz set runs at x = 1."""
+    """Fz starts at Fz0 (docs/specification.md 3): a tire with another Fz0 and no Fz set runs at x = 1."""
     params = {"Fz0": 30000.0}
     p = ref.parameters(**params)
     tire = make_tire(model, params=params, vx=5.0)

@@ -1,4 +1,4 @@
-"""Log messages read the same in every importer (SPEC 7): the message argument is the text
+"""Log messages read the same in every importer (docs/specification.md 7): the message argument is the text
 itself with '%' written as '%%' and '#' as '##', and no variable arguments follow it.
 
 A logger that formats the message (fmpy's proxy, like FMI Library and fmusim) turns '%%'

@@ -1,4 +1,4 @@
-"""The packed modelDescription.xml against SPEC sections 1, 3 and 7."""
+"""The packed modelDescription.xml against docs/specification.md 1, 3 and 7."""
 
 import zipfile
 
@@ -39,7 +39,7 @@ def test_archive_layout(fmu_path):
 
 
 def test_packed_description_is_the_single_source(fmu_path, model_description):
-    """SPEC 1: modelDescription/ is the one source of truth; the FMU carries it."""
+    """docs/specification.md 1: modelDescription/ is the one source of truth; the FMU carries it."""
     from fmpy import read_model_description
 
     from conftest import REPO
@@ -67,7 +67,7 @@ def test_cosimulation_capabilities(model_description):
 
 
 def test_model_exchange_capabilities(model_description):
-    """SPEC 7b: Model Exchange beside Co-Simulation, same modelIdentifier, with FMU state,
+    """docs/specification.md 7b: Model Exchange beside Co-Simulation, same modelIdentifier, with FMU state,
     serialization and directional derivatives; 18 states and 9 event indicators."""
     md = model_description
     me = md.modelExchange
@@ -96,7 +96,7 @@ def test_outputs(variables):
         assert v.valueReference == ref.OUTPUT_VR[name]
 
 
-# The friction parameters (SPEC 3, 4c) and their documented defaults.
+# The friction parameters (docs/specification.md 3, 4c) and their documented defaults.
 FRICTION_PARAMETERS = {"muX": (122, 0.8), "muY": (123, 0.8), "muLoadSensitivity": (124, -0.1),
                        "boreRadius": (125, 0.1)}
 
@@ -114,10 +114,10 @@ def test_parameters(variables):
     for name in ("muX", "muY", "boreRadius"):
         assert float(variables[name].min) == 0.0, name
     assert variables["muLoadSensitivity"].min is None
-    # snowblower values where Koo & Tan Table 1 gives them (SPEC 3, 9)
+    # snowblower values where Koo & Tan Table 1 gives them (docs/specification.md 3, 9)
     for name, value in ref.SNOWBLOWER.items():
         assert float(variables[name].start) == value, name
-    # sigmaTread below sigmaY and sigmaX (SPEC 3)
+    # sigmaTread below sigmaY and sigmaX (docs/specification.md 3)
     st = float(variables["sigmaTread"].start)
     assert 0 < st < float(variables["sigmaY"].start) and st < float(variables["sigmaX"].start)
 
@@ -131,7 +131,7 @@ def test_friction_selector_is_an_integer_every_importer_can_set(model_descriptio
 
 
 def test_tire_model_selector_is_an_integer_every_importer_can_set(variables):
-    # Integer, not Enumeration: OSP libcosim ignores Enumeration variables (SPEC 3).
+    # Integer, not Enumeration: OSP libcosim ignores Enumeration variables (docs/specification.md 3).
     v = variables["tireModel"]
     assert v.causality == "parameter" and v.variability == "fixed"
     assert v.type == "Integer"
@@ -181,7 +181,7 @@ def test_units_are_defined(model_description, variables):
 
 
 def _true_dependencies():
-    """Inputs that each output depends on directly, from the SPEC equations (union over
+    """Inputs that each output depends on directly, from the equations of docs/specification.md 4 (union over
     the four models): D != 0, C depends on vx, and on Fz (lift-off, loaded lengths)."""
     rng = np.random.default_rng(1)
     deps = {o: set() for o in ref.OUTPUTS}
@@ -206,7 +206,7 @@ def _true_dependencies():
                 deps[o].add("vx")
             if y_lifted[j] != ys[2.0][j] or abs(y_heavy[j] - ys[2.0][j]) > 1e-12 * abs(ys[2.0][j]):
                 deps[o].add("Fz")
-    # Friction (SPEC 4c): DDT's damped forces depend on the slip velocities directly; where
+    # Friction (docs/specification.md 4c): DDT's damped forces depend on the slip velocities directly; where
     # both directions slide together on the ellipse, each force depends on both.
     for o in ("Fx", "Fy", "Mz", "My"):
         deps[o] |= {"vy", "vsx", "Fz"}
@@ -226,7 +226,7 @@ def test_model_structure_outputs(model_description):
         assert {d.name for d in u.dependencies} >= states, u.variable.name
         assert declared == truth[u.variable.name], (
             f"{u.variable.name}: declared direct dependencies {sorted(declared)}, "
-            f"SPEC equations give {sorted(truth[u.variable.name])}")
+            f"the equations of docs/specification.md give {sorted(truth[u.variable.name])}")
     # sanity of the derivation itself
     assert truth["Fy"] >= {"vy"} and truth["Mz"] >= {"vy", "steerRate"} and truth["deflY"] == set()
 

@@ -1,11 +1,11 @@
-"""Model Exchange in the same FMU (SPEC 7b; issue 18), against the exact Co-Simulation.
+"""Model Exchange in the same FMU (docs/specification.md 7b; issue 18), against the exact Co-Simulation.
 
 The FMU serves FMI 2.0 Model Exchange (ME) beside Co-Simulation (CS) from the same
 physics: 18 continuous states (tireState1..6: the selected model's states in the order of
 reference.STATES, unused ones 0; then sliderOffsetX1..4, sliderOffsetY1..4,
 sliderOffsetPsi1..4: the friction branches' slider offsets) and 9 event indicators (the
 stick/slide guards of planar groups 1..4 and yaw groups 1..4, then lift-off/touchdown).
-CS is exact for piecewise-constant inputs at any step (SPEC 6: forces within 1e-6 Fmax of
+CS is exact for piecewise-constant inputs at any step (docs/specification.md 6: forces within 1e-6 Fmax of
 the exact solution), so it is the reference every ME run is held to.
 
 1. fmpy simulate_fmu(fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-10)
@@ -258,7 +258,7 @@ def run_me(md, unzipdir, case, solver):
     """fmpy simulate_fmu, Model Exchange, through a FMU2CountingModel instance.
     Returns (result, number of fmi2EnterEventMode calls, seconds)."""
     if md.modelExchange is None:
-        pytest.fail("the FMU declares no <ModelExchange> (SPEC 7b): rebuild it")
+        pytest.fail("the FMU declares no <ModelExchange> (docs/specification.md 7b): rebuild it")
     fmu = me_instance(md, unzipdir, name=f"me-{case!r}")
     result, seconds = simulate_me(md, unzipdir, case, solver, fmu)
     return result, fmu.n_events, seconds
@@ -702,7 +702,7 @@ def test_parked_mass_does_not_chatter(model_description, unzipdir, model, law, p
       first 10 Hz half-cycle, which sets the shift, is of order (2 pi 10 Hz 1 ms)^2 = 0.4 %;
       measured up to 0.6 %), so only the means, not the trajectories, are comparable."""
     if model_description.modelExchange is None:
-        pytest.fail("the FMU declares no <ModelExchange> (SPEC 7b): rebuild it")
+        pytest.fail("the FMU declares no <ModelExchange> (docs/specification.md 7b): rebuild it")
     Fmax = fr.limits(P_DEFAULT, FZ0)["y"]
     m = C_Y / (8.0 * math.pi) ** 2
     push_time, F0_cs, means_cs = parked_cs(model_description, unzipdir, model, law, m, Fmax, parking)
@@ -754,7 +754,7 @@ def test_both_interfaces_are_declared_and_validate(fmu_path, model_description):
     from fmpy.validation import validate_fmu
 
     md = model_description
-    assert md.modelExchange is not None, "no <ModelExchange> in the FMU (SPEC 7b)"
+    assert md.modelExchange is not None, "no <ModelExchange> in the FMU (docs/specification.md 7b)"
     assert md.coSimulation is not None
     assert md.modelExchange.modelIdentifier == md.coSimulation.modelIdentifier == "TireLag"
     assert md.numberOfContinuousStates == N_STATES
@@ -783,7 +783,7 @@ def test_model_exchange_call_sequence(model_description, unzipdir):
     (no event requested, no termination), an event (enterEventMode, newDiscreteStates,
     enterContinuousTimeMode), terminate, freeInstance."""
     if model_description.modelExchange is None:
-        pytest.fail("the FMU declares no <ModelExchange> (SPEC 7b): rebuild it")
+        pytest.fail("the FMU declares no <ModelExchange> (docs/specification.md 7b): rebuild it")
     fmu = me_instance(model_description, unzipdir, name="sequence")
     try:
         fmu.setupExperiment(startTime=0.0)
@@ -839,14 +839,14 @@ def test_model_exchange_call_sequence(model_description, unzipdir):
 @pytest.mark.parametrize("law", ["Unlimited", "Brush"])
 @pytest.mark.parametrize("model", MODELS)
 def test_state_layout_and_linear_derivatives(model_description, unzipdir, model, law):
-    """The fixed layout of SPEC 7b: tireState1..n are the model's states in the order of
+    """The fixed layout of docs/specification.md 7b: tireState1..n are the model's states in the order of
     reference.STATES (RLT uY, uX; DDT uPsi, uY, uX; SecondOrder eta, uT, w, uX; RingBody
     eta, uT, w, xr, uTx, wx), the rest 0. At vx = 3 m/s and random small states (every
     Brush branch far inside its limit, slider offsets 0) and inputs, fmi2GetDerivatives
-    equals A x + B u of reference.system (SPEC 4) to 1e-12 of its largest entry, and the
+    equals A x + B u of reference.system (docs/specification.md 4) to 1e-12 of its largest entry, and the
     unused states and every slider offset have derivative 0."""
     if model_description.modelExchange is None:
-        pytest.fail("the FMU declares no <ModelExchange> (SPEC 7b): rebuild it")
+        pytest.fail("the FMU declares no <ModelExchange> (docs/specification.md 7b): rebuild it")
     rng = np.random.default_rng(seed("layout", model, law))
     vx = 3.0
     A, B, _, _ = ref.system(model, ref.parameters(), vx)
@@ -890,10 +890,10 @@ def _raw(fmu, name, argtypes):
 
 
 def test_do_step_is_refused_on_a_model_exchange_instance(model_description, unzipdir):
-    """SPEC 7/7b: the call sequence is enforced per interface. fmi2DoStep on an instance
+    """docs/specification.md 7/7b: the call sequence is enforced per interface. fmi2DoStep on an instance
     made for Model Exchange returns fmi2Error (3)."""
     if model_description.modelExchange is None:
-        pytest.fail("the FMU declares no <ModelExchange> (SPEC 7b): rebuild it")
+        pytest.fail("the FMU declares no <ModelExchange> (docs/specification.md 7b): rebuild it")
     fmu = me_instance(model_description, unzipdir, name="me-dostep")
     try:
         fmu.setupExperiment(startTime=0.0)

@@ -1,4 +1,4 @@
-"""All four models are exact for held and ramped inputs (SPEC sections 4 and 6).
+"""All four models are exact for held and ramped inputs (docs/specification.md 4 and 6).
 
 Every output after every step must equal the exact solution of the model's linear ODE
 (reference.simulate: matrix exponential of the augmented system) to 1e-9 relative, i.e.
@@ -74,7 +74,7 @@ def test_ramp_rate_is_kept_and_inputs_advance(make_tire, model):
 @pytest.mark.parametrize("vx", [100.0, -100.0, 0.0])
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_extreme_steps_are_exact(make_tire, model, vx):
-    """SPEC 6: any step from 1e-6 s to 10 s and |vx| up to 100 m/s."""
+    """docs/specification.md 6: any step from 1e-6 s to 10 s and |vx| up to 100 m/s."""
     rng = np.random.default_rng(seed("extreme", model, vx))
     hs = np.array([1e-6] * 20 + [10.0] * 3 + [1e-6] * 20 + [3.7e-3] * 20 + [10.0] * 2 + [1e-6] * 5)
     U = random_steps(rng, len(hs), hold=4, amplitudes=AMPLITUDES)
@@ -101,7 +101,7 @@ def test_result_does_not_depend_on_chopping(make_tire, model):
 
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_outputs_follow_the_latest_inputs(make_tire, model):
-    """SPEC 6: outputs match the current states and the most recently set inputs
+    """docs/specification.md 6: outputs match the current states and the most recently set inputs
     (direct feedthrough), also between steps and after changing vx."""
     rng = np.random.default_rng(seed("feedthrough", model))
     tire = make_tire(model, vx=4.0)
@@ -120,7 +120,7 @@ def test_outputs_follow_the_latest_inputs(make_tire, model):
 @pytest.mark.parametrize("h", [1e-3, 0.05])
 @pytest.mark.parametrize("model", ref.MODEL_NAMES)
 def test_speed_and_load_changing_every_step_are_exact(make_tire, model, h):
-    """SPEC 6b: in a vehicle model vx and Fz change every step. Each step is checked
+    """docs/specification.md 6b: in a vehicle model vx and Fz change every step. Each step is checked
     against the reference's own exact step at that step's vx (vx through zero and
     reverse, a sweep up to 30 m/s), with Fz varying and a lift-off in the middle."""
     n = 600

@@ -1,4 +1,4 @@
-"""Every runnable binary of the two FMUs gives the Linux x86_64 results (SPEC 1b).
+"""Every runnable binary of the two FMUs gives the Linux x86_64 results (docs/specification.md 1b).
 
 tests/platforms/host.c drives one binary through the same cases (every model and law:
 sticking, sliding, vx through zero, lift-off and touchdown, standstill steering, long steps,

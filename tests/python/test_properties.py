@@ -1,7 +1,7 @@
 """Property tests (hypothesis) over random valid parameters and input sequences.
 
 * no NaN or infinity in any output, for any model, parameters, speeds, steps and loads;
-* the result does not depend on how the importer chops time (SPEC section 6);
+* the result does not depend on how the importer chops time (docs/specification.md 6);
 * the FMU equals the exact reference solution for random physical parameters.
 """
 
@@ -23,7 +23,7 @@ def log_uniform(lo, hi):
 
 @st.composite
 def valid_parameters(draw, wide=True):
-    """Random parameters inside the valid domain (SPEC sections 3 and 8)."""
+    """Random parameters inside the valid domain (docs/specification.md 3 and 8)."""
     span = (1e-3, 1e3) if wide else (0.2, 5.0)
 
     def scaled(name):

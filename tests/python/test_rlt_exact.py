@@ -1,4 +1,4 @@
-"""Foundation acceptance: the RLT model is exact (SPEC sections 4-6).
+"""Foundation acceptance: the RLT model is exact (docs/specification.md 4-6).
 
 * Piecewise-constant random vy, steerRate and vsx at five speeds and three step sizes:
   every output equals the exact (matrix exponential) solution to 1e-9 relative.

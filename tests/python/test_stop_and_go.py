@@ -1,4 +1,4 @@
-"""Stop and go, reversing, and lift-off (SPEC sections 4, 6 and 8).
+"""Stop and go, reversing, and lift-off (docs/specification.md 4, 6 and 8).
 
 vx goes 10 -> 0 -> -10 -> 0 -> 10 m/s with smooth (cosine) ramps while the wheel steers
 and slides; vx is held over each step (a new value every step).
@@ -146,7 +146,7 @@ def test_lift_off(make_tire, model, Fz_off):
         assert now[ref.OUT[name]] == 0.0, f"{name} = {now[ref.OUT[name]]} right after lift-off"
     for name in ("deflX", "deflY", "deflPsi"):
         assert now[ref.OUT[name]] == before[ref.OUT[name]], f"{name} jumped at lift-off"
-    # The transient slips divide by the loaded relaxation lengths (SPEC 4b); off the
+    # The transient slips divide by the loaded relaxation lengths (docs/specification.md 4b); off the
     # ground there is no load, and they use the nominal lengths.
     p = ref.parameters()
     for slip, deflection, length in (("alphaT", "deflY", "sigmaY"), ("kappaT", "deflX", "sigmaX")):

@@ -54,7 +54,8 @@ pub struct Instance {
     /// Whether `parameters` changed since `tire` was made from them.
     parameters_changed: bool,
     /// Whether the importer has set Fz. Until it does, Fz follows the nominal load Fz0
-    /// (SPEC 3: Fz starts at Fz0), so that a changed Fz0 is not a changed load.
+    /// (docs/specification.md 3: Fz starts at Fz0), so that a changed Fz0 is not a
+    /// changed load.
     normal_load_set: bool,
     tire: Tire,
     time: f64,
@@ -856,8 +857,9 @@ mod tests {
 
     #[test]
     fn an_instance_fits_in_16_kib() {
-        // SPEC 6b: an instance holds at most 16 KiB. The stepper's storage is fixed-size
-        // and lives inside the instance; only the instance name is on the heap besides.
+        // docs/specification.md 6b: an instance holds at most 16 KiB. The stepper's storage
+        // is fixed-size and lives inside the instance; only the instance name is on the heap
+        // besides.
         let size = std::mem::size_of::<Instance>();
         assert!(size <= 16 * 1024, "an instance takes {size} bytes");
         println!("size of an instance: {size} bytes");

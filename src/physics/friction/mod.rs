@@ -1,5 +1,5 @@
-//! The friction limit (SPEC 4c): a rate-independent slider in series with each contact
-//! element of a model.
+//! The friction limit (docs/specification.md 4c): a rate-independent slider in series
+//! with each contact element of a model.
 //!
 //! A model names its contact elements ([`ContactElement`]: which state is the element's
 //! deflection, its stiffness and damping, and which outputs its force feeds). The law

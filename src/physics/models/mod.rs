@@ -1,6 +1,7 @@
-//! The four tire-lag models. Each is a small file that writes its equations (SPEC
-//! section 4) into a [`StateSpace`] for a given speed; the [`Tire`](super::Tire) does
-//! the rest. Shared pieces (relaxation-length lag, contact mass) live here.
+//! The four tire-lag models. Each is a small file that writes its equations
+//! (docs/specification.md 4) into a [`StateSpace`] for a given speed; the
+//! [`Tire`](super::Tire) does the rest. Shared pieces (relaxation-length lag, contact
+//! mass) live here.
 
 mod ddt;
 mod ring_body;
@@ -57,15 +58,16 @@ pub trait TireLagModel: Sync {
         })
     }
 
-    /// The elements through which the model touches the road (SPEC 4c), by direction;
-    /// each gets a friction slider in series.
+    /// The elements through which the model touches the road (docs/specification.md
+    /// 4c), by direction; each gets a friction slider in series.
     fn contact_elements(&self, p: &Parameters) -> ContactElements;
 }
 
 /// First-order relaxation of a deflection `u` driven by a slip velocity:
 /// `du/dt = v - (rho/sigma) u`, force `-(stiffness u + damping du/dt)` into `force`.
 /// `rho/sigma` is written as `relaxation_speed / relaxation_length`, the speed being the
-/// operating point's lateral or longitudinal one (SPEC 4b: loaded lengths).
+/// operating point's lateral or longitudinal one (docs/specification.md 4b: loaded
+/// lengths).
 struct Relaxation {
     state: usize,
     input: DrivingInput,

@@ -11,7 +11,8 @@ fn tire(model: ModelKind) -> Tire {
     Tire::new(linear().with_model(model)).unwrap()
 }
 
-/// The default parameters without a friction limit: the linear models of SPEC 4.
+/// The default parameters without a friction limit: the linear models of
+/// docs/specification.md 4.
 fn linear() -> Parameters {
     Parameters::default().with_friction(FrictionLaw::Unlimited)
 }

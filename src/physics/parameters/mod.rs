@@ -1,7 +1,8 @@
 //! Tire parameters, their documented defaults and their validity rules.
 //!
-//! Names follow SPEC section 3 (`Calpha`, `sigmaY`, ...): they are the parameters' public
-//! names, used in error messages so that a user can find the value they set.
+//! Names follow docs/specification.md 3 (`Calpha`, `sigmaY`, ...): they are the
+//! parameters' public names, used in error messages so that a user can find the value
+//! they set.
 
 mod selectors;
 
@@ -99,7 +100,7 @@ impl Parameter {
         Parameter::BoreRadius,
     ];
 
-    /// The parameter's public name (SPEC section 3).
+    /// The parameter's public name (docs/specification.md 3).
     pub const fn name(self) -> &'static str {
         self.describe().0
     }
@@ -207,9 +208,10 @@ impl Default for Parameters {
     /// large tire: Ckappa 500 kN, sigmaX 0.5 m, Re 0.6 m, trail 5 cm, D_long 9000 N.s/m,
     /// D_yaw 400 N.m.s/rad, contact mass 20 kg, ring 30 kg and 8 kg.m2, carcass and ring
     /// dampings 9000 N.s/m, tread relaxation length (contact half-length) 0.1 m, and the
-    /// cornering stiffness peaking at twice the nominal load (calphaLoadPeak 2, SPEC 4b).
-    /// Friction (SPEC 4c): the Brush law with mu 0.8 both ways at Fz0, falling by 10 %
-    /// per Fz0 of extra load (muLoadSensitivity -0.1), and a bore radius of 0.1 m.
+    /// cornering stiffness peaking at twice the nominal load (calphaLoadPeak 2,
+    /// docs/specification.md 4b). Friction (docs/specification.md 4c): the Brush law with
+    /// mu 0.8 both ways at Fz0, falling by 10 % per Fz0 of extra load (muLoadSensitivity
+    /// -0.1), and a bore radius of 0.1 m.
     fn default() -> Self {
         let mut p = Parameters {
             model: ModelKind::Ddt,

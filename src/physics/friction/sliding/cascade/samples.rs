@@ -56,10 +56,10 @@ pub(super) fn none_past(events: &Events) -> bool {
 /// there finds (its event value below zero: sliding where its sticking force is outside
 /// its ellipse, [`GroupInput::outside`]). A group may end a step within the event
 /// tolerance past its event, still in its mode, where a step from a restored state,
-/// which decides its modes itself, would find the other (SPEC 7: it must go on the same
-/// way): such an end does not prepare its own modes for the next step; the outputs made
-/// from its states decide them there, as a restored state's step does (from the same
-/// trial forces, the same bits).
+/// which decides its modes itself, would find the other (docs/specification.md 7: it must
+/// go on the same way): such an end does not prepare its own modes for the next step; the
+/// outputs made from its states decide them there, as a restored state's step does (from
+/// the same trial forces, the same bits).
 pub(super) fn ends_decided(events: &Events) -> bool {
     events.iter().flatten().all(|&event| event < 0.0)
 }

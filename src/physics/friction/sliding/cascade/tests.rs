@@ -678,17 +678,17 @@ fn a_carried_first_substep_too_short_for_the_step_is_ignored() {
     );
 }
 
-/// SPEC 7, with a carried length: a DDT tire sliding in both directions (muX = muY =
-/// 0.01, either law) under the slide yardstick's inputs in 2 ms steps, its states,
-/// branches, inputs and carried substep lengths saved every tenth step where the
-/// cascade's first substep length is carried (finite), continues bit for bit when
-/// they are restored (as `Instance::restore` restores an FMU state) onto a fresh tire
-/// and onto one that has been stepping elsewhere: its states, outputs and carried
-/// lengths after each of the next ten steps, under the yardstick's inputs, and under
-/// the saved inputs held (where the saved tire starts each step from what its last
-/// step's outputs prepared, which the state does not hold, and the restored one
-/// decides the modes anew). Restored without the carried lengths, some continue
-/// otherwise: the lengths are in play here.
+/// docs/specification.md 7, with a carried length: a DDT tire sliding in both directions
+/// (muX = muY = 0.01, either law) under the slide yardstick's inputs in 2 ms steps, its
+/// states, branches, inputs and carried substep lengths saved every tenth step where the
+/// cascade's first substep length is carried (finite), continues bit for bit when they
+/// are restored (as `Instance::restore` restores an FMU state) onto a fresh tire and onto
+/// one that has been stepping elsewhere: its states, outputs and carried lengths after
+/// each of the next ten steps, under the yardstick's inputs, and under the saved inputs
+/// held (where the saved tire starts each step from what its last step's outputs
+/// prepared, which the state does not hold, and the restored one decides the modes anew).
+/// Restored without the carried lengths, some continue otherwise: the lengths are in play
+/// here.
 #[test]
 fn a_restored_state_with_a_carried_length_continues_bit_for_bit() {
     use crate::physics::Tire;
