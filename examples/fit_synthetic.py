@@ -13,10 +13,13 @@ as a CSV and fitted back with ./scripts/fit (the FMU's exact step, bounded least
 - friction_plateau: RLT rolling at 10 m/s with Coulomb, the slip ramped into saturation:
   muY with Calpha.
 
-    .venv/bin/python examples/fit_synthetic.py [--out out/fit] [--seed 1]
+    .venv/bin/python examples/fit_synthetic.py [--out out/fit] [--seed 1] [--fmu FMU]
 
 prints each parameter's truth, estimate and 95 % interval, and writes each experiment's
-CSV, fit files and PNG below --out.
+CSV, fit files and PNG below --out. The data come from either FMU (--fmu: the FMI 2.0
+target/fmu/TireLag.fmu, the default, or the FMI 3.0 target/fmu/fmi3/TireLag.fmu; the
+inputs are held over each step, so the two give the same data); ./scripts/fit fits them
+with its own exact step.
 """
 
 from __future__ import annotations
@@ -30,7 +33,9 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-FMU = REPO / "target" / "fmu" / "TireLag.fmu"
+sys.path.insert(0, str(REPO / "examples"))
+from cosim.fmi import FMU2_PATH as FMU, Slave  # noqa: E402  (either FMU, FMI 2.0 or 3.0)
+
 INPUTS = ["vx", "vy", "steerRate", "vsx", "Fz"]
 MODELS = {"RLT": 1, "DDT": 2, "SecondOrder": 3, "RingBody": 4}
 LAWS = {"Unlimited": 1, "Coulomb": 2, "Brush": 3}
@@ -73,31 +78,30 @@ EXPERIMENTS = {
 }
 
 
-def synthesise(model, law, duration, inputs_of, truth, output):
-    """The FMU's run (row k: inputs set, output read, then a step of H), noise-free."""
+def synthesise(model, law, duration, inputs_of, truth, output, fmu=FMU):
+    """The run of `fmu` (FMI 2.0 or 3.0; row k: inputs set, output read, then a step of H
+    with the inputs held), noise-free."""
+    import shutil
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
 
-    md = read_model_description(str(FMU))
+    md = read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(FMU)), modelIdentifier="TireLag",
-                      instanceName="synthesis")
-    slave.instantiate()
-    slave.setupExperiment(startTime=0.0)
-    slave.setInteger([vr["tireModel"], vr["friction"]], [MODELS[model], LAWS[law]])
-    slave.setReal([vr[n] for n in truth], list(truth.values()))
-    slave.enterInitializationMode()
-    slave.exitInitializationMode()
-    t = np.arange(0.0, duration + H / 2, H)
-    series = inputs_of(t)
-    y = np.empty_like(t)
-    for k, tk in enumerate(t):
-        slave.setReal([vr[n] for n in series], [float(series[n][k]) for n in series])
-        y[k] = slave.getReal([vr[output]])[0]
-        if k + 1 < len(t):
-            slave.doStep(tk, H)
-    slave.terminate()
-    slave.freeInstance()
+    unzipdir = extract(str(fmu))
+    try:
+        with Slave(md, unzipdir, "synthesis", fmu) as slave:
+            slave.set_selector([vr["tireModel"], vr["friction"]], [MODELS[model], LAWS[law]])
+            slave.set_real([vr[n] for n in truth], list(truth.values()))
+            slave.initialize(start_time=0.0)
+            t = np.arange(0.0, duration + H / 2, H)
+            series = inputs_of(t)
+            y = np.empty_like(t)
+            for k, tk in enumerate(t):
+                slave.set_real([vr[n] for n in series], [float(series[n][k]) for n in series])
+                y[k] = slave.get_real([vr[output]])[0]
+                if k + 1 < len(t):
+                    slave.do_step(tk, H)
+    finally:
+        shutil.rmtree(unzipdir, ignore_errors=True)
     return t, series, y
 
 
@@ -115,9 +119,9 @@ def fit(csv, model, law, free, out, tool=REPO / "scripts" / "fit"):
     return json.loads((Path(out) / "fit.json").read_text())
 
 
-def run(name, out, rng, tool=REPO / "scripts" / "fit"):
+def run(name, out, rng, tool=REPO / "scripts" / "fit", fmu=FMU):
     model, law, duration, inputs_of, truth, free, noise, output = EXPERIMENTS[name]
-    t, series, y = synthesise(model, law, duration, inputs_of, truth, output)
+    t, series, y = synthesise(model, law, duration, inputs_of, truth, output, fmu)
     measured = y + rng.normal(0.0, noise, size=y.shape)
     directory = Path(out) / name
     directory.mkdir(parents=True, exist_ok=True)
@@ -129,11 +133,13 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(REPO / "out" / "fit"))
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--fmu", type=Path, default=FMU,
+                        help=f"the FMU that makes the data: FMI 2.0 (default: {FMU}) or FMI 3.0")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     print(f"{'experiment':<18} {'parameter':<14} {'truth':>12} {'estimate':>12}   95 % interval")
     for name in EXPERIMENTS:
-        truth, result = run(name, args.out, rng)
+        truth, result = run(name, args.out, rng, fmu=args.fmu)
         for parameter, estimate in result["estimates"].items():
             low, high = estimate["interval"]
             inside = "in" if low <= truth[parameter] <= high else "OUT"

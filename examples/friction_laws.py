@@ -1,17 +1,17 @@
 #!/usr/bin/env python3
-"""The friction limit (SPEC 4c): steady-state Fy(alpha) and the standstill loop.
+"""The friction limit (docs/specification.md 4c): steady-state Fy(alpha) and the standstill loop.
 
 TireLag bounds the force of every contact element with a rate-independent friction slider,
 chosen with the Integer parameter `friction`:
 
-  Unlimited  no slider: the linear tire of SPEC 4, Fy = Calpha(Fz) alpha
+  Unlimited  no slider: the linear tire of docs/specification.md 4, Fy = Calpha(Fz) alpha
   Coulomb    one slider per element: exactly linear up to Fmax = muY(Fz) Fz, flat beyond,
              Fy = sign(alpha) min(Calpha(Fz) |alpha|, Fmax)
   Brush      (the default) four parallel spring-slider branches per element, fitted to the
              brush curve Fmax (3t - 3t^2 + t^3), t = min(1, Calpha(Fz) |alpha| / (3 Fmax)),
              within 0.013 Fmax, and exactly linear below 0.2 Fmax
 
-with the load laws of SPEC 4b/4c (x = Fz/Fz0, c2 = calphaLoadPeak):
+with the load laws of docs/specification.md 4b/4c (x = Fz/Fz0, c2 = calphaLoadPeak):
 Calpha(Fz) = Calpha x (1 + 1/c2^2)/(1 + x^2/c2^2) and muY(Fz) = muY (1 + muLoadSensitivity (x - 1)).
 
 Figure 1, steady state. The default DDT tire rolls at vx = 10 m/s with the slip angle
@@ -83,7 +83,7 @@ COLORS = {"Unlimited": "0.55", "Coulomb": "tab:blue", "Brush": "tab:red"}
 LOAD_COLORS = {0.5: "tab:green", 1.0: "tab:red", 1.5: "tab:purple"}
 
 
-# --------------------------------------------------------------------------- the laws (SPEC 4b, 4c)
+# --------------------------------------------------------------------------- the laws (docs/specification.md 4b, 4c)
 
 def load_laws(p: dict, ratio: float) -> dict:
     """Calpha(Fz), muY(Fz), Fmax = muY(Fz) Fz and C_y at Fz = ratio Fz0."""
@@ -296,7 +296,7 @@ def report(res: dict) -> None:
     worst = max(x["brush_max_deviation"] for x in s["loads"].values())
     print(f"Brush max deviation from the brush curve over the sweep: {worst:.5f} Fmax "
           f"(at x = {v['brush_max_deviation_x']:.3f}, alpha = {v['brush_max_deviation_alpha_deg']:.3f} deg at Fz0; "
-          "fit bound 0.01304, SPEC 0.02)")
+          "fit bound 0.01304, specification 0.02)")
     print(f"Brush linear up to 0.2 Fmax: |Fy/(Calpha(Fz) tan alpha) - 1| <= "
           f"{max(x['brush_linear_error'] for x in s['loads'].values()):.1e} for x <= 0.2 "
           f"(up to {v['brush_linear_up_to']:.4f} Fmax)")
@@ -419,7 +419,7 @@ def plot_steady(res: dict, path: Path) -> None:
     for sgn in (1, -1):
         ax_c.axhline(sgn * 2.0, color="black", lw=0.8, ls="--")
         ax_c.axhline(sgn * 100 * worst, color="black", lw=0.6, ls=":")
-    ax_c.text(ALPHA_MAX_DEG - 0.1, 2.05, "SPEC bound ±2 % Fmax", ha="right", va="bottom", fontsize=8.5)
+    ax_c.text(ALPHA_MAX_DEG - 0.1, 2.05, "specified bound ±2 % Fmax", ha="right", va="bottom", fontsize=8.5)
     ax_c.text(ALPHA_MAX_DEG - 0.1, 100 * worst + 0.05, f"max {100 * worst:.2f} % Fmax (at x = 0.2)", ha="right",
               va="bottom", fontsize=8.5)
     ax_c.set_ylim(-2.6, 2.6)

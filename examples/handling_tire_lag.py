@@ -116,9 +116,13 @@ def eq19(speed: float, tau1: float, tau2: float) -> tuple[float, float]:
 
 
 def handling_mode(poles) -> tuple[float, float]:
-    """(wn, zeta) of the two poles nearest the origin (a complex pair, or two real poles
-    of an overdamped mode): wn^2 = p1 p2, 2 zeta wn = -(p1 + p2)."""
-    p = sorted(np.asarray(poles, dtype=complex), key=abs)[:2]
+    """(wn, zeta) of the complex pair nearest the origin, or, without one, of the two real
+    poles nearest it (an overdamped mode): wn^2 = p1 p2, 2 zeta wn = -(p1 + p2). The pair
+    first, because with both axles lagged the fit's fourth pole (the lag it barely sees
+    below 5 Hz) can land anywhere on the real axis, also near the origin."""
+    poles = sorted(np.asarray(poles, dtype=complex), key=abs)
+    pairs = [q for q in poles if q.imag > 1e-9 * abs(q)]
+    p = [pairs[0], pairs[0].conjugate()] if pairs else poles[:2]
     wn = math.sqrt((p[0] * p[1]).real)
     return wn, -(p[0] + p[1]).real / (2.0 * wn)
 

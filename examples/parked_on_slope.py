@@ -4,7 +4,7 @@
 A 1500 kg car stands on a grade with all four wheels locked (parking brake on the rear
 wheels, P on a front-wheel-drive gearbox) and its engine idling. The grade pulls the car
 along its x axis (x points downhill), and the idling engine shakes it. The tires' friction
-limit (SPEC 4c) decides what happens:
+limit (docs/specification.md 4c) decides what happens:
 
 * 20 % grade (11.3 deg), tan(theta) = 0.2 < mu: the tires hold the car. It settles on the
   tires' longitudinal stiffness and vibrates about a fixed position; it does not creep
@@ -18,7 +18,7 @@ The model:
   second engine order of a four-cylinder engine idling at 750 rpm), applied as a
   longitudinal force on the body; the wheel loads stay constant.
 * Tires: DDT (standstill-safe and damped: at rho = 0 each direction is a spring-damper to
-  the ground, SPEC 4), with the Brush friction law (the FMU default) and, for comparison,
+  the ground, docs/specification.md 4), with the Brush friction law (the FMU default) and, for comparison,
   Coulomb. Each tire gets vsx = v, the body's velocity along x: a locked wheel's slip
   velocity vx - omega Re is the velocity of the wheel centre, and omega = 0. Its vx input
   is 0: the relaxation terms of the models use rho = |vx| as the speed at which tread runs
@@ -84,7 +84,7 @@ def settings(quick: bool) -> dict:
 
 
 def mu_at(mu: float, Fz: float, Fz0: float, sensitivity: float) -> float:
-    """SPEC 4c: mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1)), never below 0."""
+    """docs/specification.md 4c: mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1)), never below 0."""
     return max(0.0, mu * (1.0 + sensitivity * (Fz / Fz0 - 1.0)))
 
 

@@ -27,7 +27,7 @@ How the model is assembled (eqs 18-23, 31-39, Appendix A):
   the vehicle model; so does this script (dampingPsi = 0, trail = 0).
 
 Where the text extraction of the paper is garbled, the model was rebuilt from the physics
-(and it then gives exactly the SPEC's 0.83 Hz / 0.066 and 1.34 Hz / 0.108):
+(and it then gives exactly the 0.83 Hz / 0.066 and 1.34 Hz / 0.108 of docs/specification.md 9):
 * eq 37 prints C_lat^f and "+ l2" for the rear axle; the rear axle is l2 behind the
   centre of gravity, so its deflection is (ys - yu) - l2 (psi_s - psi_u), with C_lat^r.
 * eq 38 prints "Flat^f l1 - Flat^f l2"; the rear force acts at -l2: Flat^f l1 - Flat^r l2.
@@ -65,7 +65,7 @@ from cosim.frequency import measure_response  # noqa: E402
 
 NAME = "snowblower_standstill"
 PAPER_RESONANCE_HZ = 0.8          # Koo & Tan, section 6 and Fig 5(a): measured
-TABLE1_YAW_MODE = (0.83, 0.066)   # SPEC section 9: the linear model of Table 1
+TABLE1_YAW_MODE = (0.83, 0.066)   # docs/specification.md 9: the linear model of Table 1
 TABLE1_LATERAL_MODE = (1.34, 0.108)
 STEER_AMPLITUDE = math.radians(1.0)
 

@@ -29,9 +29,14 @@ damping ratio over speed and sigmaY, one row per tire model).
 
     .venv/bin/python examples/sweep.py                      # LocalCluster, 2 workers
     .venv/bin/python examples/sweep.py --serial             # no Dask
-    .venv/bin/dask scheduler                                # elsewhere: a cluster
-    .venv/bin/dask worker tcp://HOST:8786                   # on each worker machine
+    # a cluster: HOST is the scheduler machine's address on the cluster's network, WORKER
+    # each worker machine's own (127.0.0.1 for both on one machine, nothing else reaches it)
+    .venv/bin/dask scheduler --host HOST --dashboard-address HOST:8787
+    .venv/bin/dask worker tcp://HOST:8786 --host WORKER --dashboard-address WORKER:0
     .venv/bin/python examples/sweep.py --scheduler tcp://HOST:8786
+
+Either FMU works (--fmu target/fmu/fmi3/TireLag.fmu for FMI 3.0; see cosim/tire.py for
+what FMI 3.0's missing input derivatives change).
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ import math
 import os
 import sys
 import tempfile
+import threading
 import time
 import zipfile
 from dataclasses import dataclass
@@ -86,19 +92,22 @@ class FMUPayload:
 
 
 _WRITTEN: dict[str, str] = {}   # sha256 -> where this process wrote the payload
+# A worker with several threads (dask worker's default) runs several cases at once: one file.
+_WRITING = threading.Lock()
 
 
 def _fmu(source):
     """The extracted FMU for a path or a payload; a payload is written to disk once per
     process, and load_fmu unpacks it once per process."""
     if isinstance(source, FMUPayload):
-        path = _WRITTEN.get(source.sha256)
-        if path is None:
-            folder = tempfile.mkdtemp(prefix=f"tirelag-sweep-{os.getpid()}-")
-            path = os.path.join(folder, f"TireLag-{source.sha256[:16]}.fmu")
-            with open(path, "wb") as f:
-                f.write(source.data)
-            _WRITTEN[source.sha256] = path
+        with _WRITING:
+            path = _WRITTEN.get(source.sha256)
+            if path is None:
+                folder = tempfile.mkdtemp(prefix=f"tirelag-sweep-{os.getpid()}-")
+                path = os.path.join(folder, f"TireLag-{source.sha256[:16]}.fmu")
+                with open(path, "wb") as f:
+                    f.write(source.data)
+                _WRITTEN[source.sha256] = path
         return load_fmu(path)
     return load_fmu(source)
 
@@ -155,6 +164,7 @@ def run_dask(cases: list[dict], fmu_path, scheduler: str | None = None, workers:
     """Run the cases on a LocalCluster of `workers` processes, or on the cluster at
     `scheduler`; results in the order of `cases`."""
     from distributed import Client, LocalCluster, progress
+    from distributed.diagnostics.plugin import UploadFile
 
     cluster = None
     if scheduler is None:
@@ -165,8 +175,14 @@ def run_dask(cases: list[dict], fmu_path, scheduler: str | None = None, workers:
         client = Client(scheduler)
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            client.upload_file(str(_code_archive(Path(tmp))))     # cosim first: this module imports it
-            client.upload_file(str(Path(__file__).resolve()))
+            for code in (_code_archive(Path(tmp)), Path(__file__).resolve()):   # cosim first: this module imports it
+                if cluster is None:
+                    client.upload_file(str(code))       # the scheduler unpickles the tasks: it needs the code too
+                else:
+                    # A LocalCluster's scheduler runs in this process, which has the code;
+                    # upload_file would reload this module and cosim there from its scratch
+                    # folder, deleted with the cluster (a second run would then fail).
+                    client.register_plugin(UploadFile(str(code)), name=f"upload {code.name}")
         # run_case and FMUPayload by this file's module name (also when it runs as
         # __main__), so that the workers use them from the upload
         task = importlib.import_module("sweep")

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Wheel loader steered at standstill: the tire's torque-angle loop, with and without friction.
 
-The Aalborg thesis (SPEC section 9) measured a 17.6 t wheel loader on 23.5R25 tires in a
+The Aalborg thesis (docs/specification.md 9) measured a 17.6 t wheel loader on 23.5R25 tires in a
 0.2 Hz, +-40 deg snake steering test, and identified the tire's torsional stiffness at
 45000 N.m/rad and its damping at 400 N.m.s/rad. This script twists one such tire about its
 vertical axis at standstill: one TireLag instance (DDT) with vx = vy = 0 and the steer angle
@@ -10,9 +10,9 @@ vertical axis at standstill: one TireLag instance (DDT) with vx = vy = 0 and the
 
 given at every communication point with its rate (fmi2SetRealInputDerivatives), so the
 FMU steps the piecewise linear steer rate exactly. At rho = 0 the DDT yaw lag is a
-spring-damper on the steer angle (SPEC 4): duPsi/dt = r, Mz = -(C_yaw uPsi + D_yaw r)
+spring-damper on the steer angle (docs/specification.md 4): duPsi/dt = r, Mz = -(C_yaw uPsi + D_yaw r)
 (vy = 0 keeps Fy, and so the trail term, at zero). It is run with the three friction
-laws of SPEC 4c:
+laws of docs/specification.md 4c:
 
 * Unlimited: an elastic loop, peak |Mz| = A sqrt(C_yaw^2 + (D_yaw w)^2) = 31.4 kN.m
   (A = 40 deg = 0.698 rad, w = 2 pi 0.2 Hz), and the energy the steering puts into the
@@ -57,10 +57,10 @@ from cosim.cli import print_table, run_example, write_csv  # noqa: E402
 NAME = "wheel_loader_steering"
 LAWS = ("Unlimited", "Coulomb", "Brush")
 G = 9.81
-MACHINE_MASS = 17600.0                         # kg (SPEC section 9)
+MACHINE_MASS = 17600.0                         # kg (docs/specification.md 9)
 WHEEL_LOAD = MACHINE_MASS * G / 4.0            # N, per tire
-STIFFNESS_PSI = 45000.0                        # N.m/rad (SPEC section 9)
-DAMPING_PSI = 400.0                            # N.m.s/rad (SPEC section 9)
+STIFFNESS_PSI = 45000.0                        # N.m/rad (docs/specification.md 9)
+DAMPING_PSI = 400.0                            # N.m.s/rad (docs/specification.md 9)
 STEER_AMPLITUDE = math.radians(40.0)           # rad
 STEER_FREQUENCY = 0.2                          # Hz
 FOOTPRINT = (0.45, 0.30)                       # m, width x length of the contact patch (see above)
@@ -78,7 +78,7 @@ def bore_radius(width: float, length: float) -> float:
 
 
 def mu_at(mu: float, Fz: float, Fz0: float, sensitivity: float) -> float:
-    """SPEC 4c: mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1)), never below 0."""
+    """docs/specification.md 4c: mu(Fz) = mu (1 + muLoadSensitivity (Fz/Fz0 - 1)), never below 0."""
     return max(0.0, mu * (1.0 + sensitivity * (Fz / Fz0 - 1.0)))
 
 

@@ -1,9 +1,10 @@
 """A small co-simulation layer for the TireLag examples.
 
-tire.py       the TireLag FMU as a tire block (one FMU2Slave each, the FMU extracted once per
+fmi.py        either TireLag FMU, FMI 2.0 or FMI 3.0: one Co-Simulation instance (fmi.Slave)
+tire.py       the TireLag FMU as a tire block (one fmi.Slave each, the FMU extracted once per
               process), and a tire without lag
 coupling.py   the master: a linear vehicle body stepped exactly, coupled implicitly to the
-              tires with ramped inputs (fmi2SetRealInputDerivatives)
+              tires with ramped inputs (fmi2SetRealInputDerivatives; FMI 3.0: their means)
 vehicle.py    a single-track vehicle (and Koo & Tan's snowblower on it)
 frequency.py  multisine excitation, frequency responses, rational fits, modes (and ERA)
 cli.py        the command line and output files the example scripts share

@@ -13,6 +13,8 @@ step h:
   points and are linear in between, so their rates are constant over a step.
 * Each tire gets its coupled inputs as a ramp from the value at the start of the step to
   the value at its end (fmi2SetRealInputDerivatives); the FMU steps that ramp exactly.
+  The FMI 3.0 FMU has no input derivatives: it gets the ramp's mean, held over the step
+  (``tire.TireLag.advance``), which keeps the coupling implicit and second order.
 * The body is stepped exactly (matrix exponential) with the tire outputs ramping linearly
   between their values at the two ends of the step.
 * The ramp's end value depends on the body state at the end of the step, which depends on
@@ -28,7 +30,8 @@ The only approximation is that the coupling signals are taken as linear within a
 (first-order hold on both sides). It is second order in h: a frequency response at
 angular frequency w is off by about (w h)^2/6, e.g. 7e-4 at 1 Hz with 10 ms steps and
 3e-7 at 1 Hz with 0.2 ms steps. Constant and ramp-shaped signals are exact, so steady
-states are exact at any h.
+states are exact at any h. (With the FMI 3.0 FMU ramps are not exact, the held means add
+an error of the same order, and steady states stay exact.)
 
 A rate term of a tire output in the body equations (a damper across a tire deflection,
 such as Koo & Tan's c1) is handled exactly by a change of state, zeta = x - B_rate y;

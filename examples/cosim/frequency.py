@@ -221,17 +221,39 @@ def measure_response(vehicle, h: float, excitation: Multisine, settle_time: floa
     return H, traj
 
 
-def sampled_response(H, freq_hz, h: float, terms: int = 200) -> np.ndarray:
+def sampled_response(H, freq_hz, h: float, terms: int = 200, hold: str = "ramp") -> np.ndarray:
     """What ``frequency_response`` measures on a linear system with frequency response H
-    (a function of frequency in Hz) driven by a sine sampled every h and interpolated
-    linearly: the interpolated sine holds, besides the fundamental, components at
-    f + m/h (m = +-1, +-2, ...) with weights w_m = sin^2(x)/(x + m pi)^2, x = pi f h
-    (they sum to 1), and sampling the output folds them all back onto f. So the
-    measurement is sum_m H(f + m/h) w_m / w_0. The sum is taken over |m| <= terms, and
-    the rest (weights ~ 1/m^2) at the value of H far up, where it is flat."""
+    (a function of frequency in Hz) driven by a sine sampled every h and, between the
+    samples, (hold = "ramp") interpolated linearly: the interpolated sine holds, besides
+    the fundamental, components at f + m/h (m = +-1, +-2, ...) with weights
+    w_m = sin^2(x)/(x + m pi)^2, x = pi f h (they sum to 1), and sampling the output folds
+    them all back onto f. So the measurement is sum_m H(f + m/h) w_m / w_0. The sum is
+    taken over |m| <= terms, and the rest (weights ~ 1/m^2) at the value of H far up,
+    where it is flat.
+
+    hold = "mean": the FMI 3.0 tire of ``tire.TireLag`` (no input derivatives), which
+    holds each step's input at the mean of its two samples and gives the outputs with the
+    input at the sample. The held signal's components at f + m/h have the weights
+    c_m = sin(x) cos(x)/(x + m pi); the states follow them, and the direct feedthrough
+    D = H(infinity) sees the sample itself: the measurement is
+    (D + sum_m (H(f + m/h) - D) c_m) / w_0, with w_0 the ramp's factor that
+    ``frequency_response`` divides out. These terms fall off as 1/m^2 only (c_m ~ 1/m,
+    H - D ~ 1/m): the sum runs to |m| <= 100 terms, and the rest is extrapolated."""
     f = np.asarray(freq_hz, dtype=float)
     x = math.pi * f * h
     fs = 1.0 / h
+    w0 = (np.sin(x) / x) ** 2
+    if hold == "mean":
+        D = H(f + 1e9 * fs)[:, None]
+        sc = (np.cos(x) * np.sin(x))[:, None]
+        m = np.arange(1, 100 * terms + 1)
+        pairs = sum((H(f[:, None] + k * fs) - D) * sc / (x[:, None] + k * math.pi) for k in (m, -m))
+        partial = np.cumsum(pairs, axis=1)
+        # the tail after M pairs goes as 1/M: Richardson from the sums to M/2 and to M
+        tail_free = 2.0 * partial[:, -1] - partial[:, len(m) // 2 - 1]
+        return (D[:, 0] + (H(f) - D[:, 0]) * sc[:, 0] / x + tail_free) / w0
+    if hold != "ramp":
+        raise ValueError(f"hold is 'ramp' or 'mean', not {hold!r}")
     total = np.zeros(f.shape, dtype=complex)
     weight_sum = np.zeros(f.shape)
     for m in range(-terms, terms + 1):
@@ -240,5 +262,4 @@ def sampled_response(H, freq_hz, h: float, terms: int = 200) -> np.ndarray:
         weight_sum += w
     far = 0.5 * (H(f + (terms + 1) * fs) + H(f - (terms + 1) * fs))
     total += (1.0 - weight_sum) * far
-    w0 = (np.sin(x) / x) ** 2
     return total / w0

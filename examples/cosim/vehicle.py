@@ -1,6 +1,6 @@
 """Vehicle models for the co-simulation master: a single-track (bicycle) body on TireLag tires.
 
-Frames and signs (ISO 8855, SPEC section 2): x forward, y to the left, z up; yaw and
+Frames and signs (ISO 8855, docs/specification.md 2): x forward, y to the left, z up; yaw and
 steer angles are positive counter-clockwise seen from above (to the left). Small angles
 throughout, as in the papers: the vehicle moves forward at a constant speed U, and its
 lateral and yaw motion is linear.
@@ -155,7 +155,7 @@ SNOWBLOWER_VARIANTS = {
 }
 
 
-# The parameters a tire property file maps (SPEC 10).
+# The parameters a tire property file maps (docs/specification.md 10).
 MAPPED_BY_TIR_FILE = ("Fz0", "Calpha", "calphaLoadPeak", "Ckappa", "muX", "muY", "muLoadSensitivity",
                       "sigmaY", "sigmaX", "trail", "Re")
 

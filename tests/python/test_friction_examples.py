@@ -1,4 +1,4 @@
-"""examples/friction_laws.py in quick mode: its printed numbers and CSVs against SPEC 4c.
+"""examples/friction_laws.py in quick mode: its printed numbers and CSVs against docs/specification.md 4c.
 
 The example runs once (module fixture, about 2 s) into a temporary folder (never docs/).
 The checks recompute everything from the CSVs with this folder's independent reference
@@ -15,7 +15,12 @@ And scripts/demo.py (the only test of the demo, about 3.5 s): its steer ramp and
 push saturate at Fmax with Brush, far below what the linear tire gives, and its chirp
 sweeps stay below 0.2 Fmax, where Brush is exactly linear.
 
-The FMU is $TIRELAG_FMU if set, else the conftest fixture's target/fmu/TireLag.fmu.
+The example and the demo run on either FMU (ids fmi2, fmi3) with the same checks: the
+example holds its inputs over each step, which FMI 3.0 does too; the demo's FMI 3.0 run
+holds each step's input at the ramp's mean and must say so.
+
+The FMI 2.0 FMU is $TIRELAG_FMU if set, else the conftest fixture's target/fmu/TireLag.fmu;
+the FMI 3.0 one is target/fmu/fmi3/TireLag.fmu.
 """
 
 from __future__ import annotations
@@ -33,14 +38,24 @@ import reference as ref
 
 PROJECT = Path(__file__).resolve().parents[2]
 EXAMPLES = PROJECT / "examples"
+FMU3 = PROJECT / "target" / "fmu" / "fmi3" / "TireLag.fmu"
 sys.path.insert(0, str(EXAMPLES))
 
 import friction_laws  # noqa: E402
 from cosim.cli import read_csv  # noqa: E402
 
 
+@pytest.fixture(scope="module", params=["fmi2", "fmi3"])
+def either_fmu(request, example_fmu):
+    """The FMI 2.0 FMU (example_fmu), then the FMI 3.0 one."""
+    if request.param == "fmi2":
+        return example_fmu
+    assert FMU3.is_file(), f"no FMI 3.0 FMU at {FMU3}: build it with ./scripts/build-fmu"
+    return str(FMU3)
+
+
 @pytest.fixture(scope="module")
-def run(example_fmu, tmp_path_factory):
+def run(either_fmu, tmp_path_factory):
     """The quick run: (result, printed text, output folder, docs/ PNG mtimes before)."""
     out_dir = tmp_path_factory.mktemp("friction_examples_out")
     docs = [PROJECT / "docs" / f"{n}.png" for n in (friction_laws.NAME, friction_laws.LOOP_NAME)]
@@ -51,7 +66,7 @@ def run(example_fmu, tmp_path_factory):
 
     text = io.StringIO()
     with contextlib.redirect_stdout(text):
-        res = friction_laws.main(["--quick", "--fmu", example_fmu, "--out-dir", str(out_dir)])
+        res = friction_laws.main(["--quick", "--fmu", either_fmu, "--out-dir", str(out_dir)])
     after = {p: p.stat().st_mtime_ns if p.exists() else None for p in docs}
     assert after == before, "the quick run without --docs must not touch docs/"
     return res, text.getvalue(), out_dir
@@ -136,7 +151,7 @@ def test_brush_follows_the_brush_curve(run, params):
     x4 = max(phi / w for w, phi in fr.BRUSH_BRANCHES)
     slide = x >= x4 + 1e-9
     assert np.max(np.abs(Fy[slide] / Fmax[slide] - 1.0)) <= 1e-9
-    # and it is the four-branch curve of SPEC 4c, point by point
+    # and it is the four-branch curve of docs/specification.md 4c, point by point
     assert np.max(np.abs(Fy / Fmax - fr.steady_force_fraction(x, "Brush"))) <= 1e-9
 
 
@@ -205,10 +220,11 @@ def test_standstill_loop_brush_and_unlimited(run, params):
 
 # --------------------------------------------------------------------------- the demo
 
-def test_demo_shows_the_friction_limit(example_fmu, params, tmp_path):
-    """scripts/demo.py (what ./scripts/demo runs after building): the chirps stay linear,
-    the steer ramp and the standstill push saturate at Fmax with Brush, and the linear
-    tire (Unlimited) goes far beyond; it prints the line about the limit."""
+def test_demo_shows_the_friction_limit(either_fmu, params, tmp_path):
+    """scripts/demo.py (what ./scripts/demo runs after building), on either FMU: the chirps
+    stay linear, the steer ramp and the standstill push saturate at Fmax with Brush, and the
+    linear tire (Unlimited) goes far beyond; it prints the line about the limit, and which
+    FMI version it ran and how it gave the inputs."""
     import contextlib
     import io
 
@@ -217,8 +233,12 @@ def test_demo_shows_the_friction_limit(example_fmu, params, tmp_path):
 
     text = io.StringIO()
     with contextlib.redirect_stdout(text):
-        demo.main([example_fmu, "--out-dir", str(tmp_path)])
+        demo.main([either_fmu, "--out-dir", str(tmp_path)])
     text = text.getvalue()
+    held = Path(either_fmu) == FMU3
+    expected = ("FMI 3.0; inputs held at each step's mean" if held
+                else "FMI 2.0; inputs ramped exactly (fmi2SetRealInputDerivatives)")
+    assert f"FMU: {either_fmu} ({expected}" in text, text
     for name in ("demo.csv", "demo.png"):
         assert (tmp_path / name).stat().st_size > 500
     Fmax = fr.limits(params, params["Fz0"])["y"]

@@ -1,14 +1,16 @@
-"""Tire data in: `tirFile` (SPEC 10 and the file lines of SPEC 8).
+"""Tire data in: `tirFile` (docs/specification.md 10 and the file lines of 8).
 
 For a PAC2002 file (examples/tires/snowblower_pac2002.tir) and an MF 6.1 file
 (tests/data/mf61_passenger.tir, with scaling factors other than 1 and PKY4 != 2):
-a. every value the FMU maps equals the formula of SPEC 10 computed here from the file's
+a. every value the FMU maps equals the formula of docs/specification.md 10 computed here from the file's
    keys by a parser of this test's own (1e-12 relative; the load peak fitted for PKY4 != 2,
    by a least-squares fit of this test's own on 0.25-2 Fz0, to 1e-6);
 b. the FMU with the file set steers to Calpha alpha at a small slip and saturates at
    muY(Fz) Fz at a large one (Coulomb, rolling, 1e-9 of the force);
 c. a parameter the importer set keeps its value; the others take the file's;
-d. the path is found absolute, as a file: URI and relative to the FMU's resources folder;
+d. the path is found absolute, as a file: URI and relative: first in the FMU's resources
+   folder, if it holds the file, then in the current working directory (FMI 2.0 and 3.0);
+   a relative path in neither is an fmi2Error naming every path tried;
 e. a file that cannot be used (missing, not a tire file, a bad line, a missing key, a value
    out of range) fails fmi2ExitInitializationMode with fmi2Error naming the file and the
    line or key and value, and changes nothing: the instance can be reset and run;
@@ -18,6 +20,7 @@ f. the mapping command prints each value with its source and writes an SSP param
 
 from __future__ import annotations
 
+import ctypes
 import math
 import os
 import re
@@ -71,7 +74,7 @@ def fitted_peak(pky2, pky4):
 
 
 def expected_mapping(path):
-    """SPEC 10's table, from the file's keys."""
+    """The table of docs/specification.md 10, from the file's keys."""
     k = read_keys(path)
     L = lambda name: k.get(name, 1.0)  # noqa: E731  (scaling factors default to 1)
     fz0 = k["FNOMIN"] * L("LFZO")
@@ -158,7 +161,7 @@ def test_every_mapped_value_follows_the_formulas(slaves, path):
 def test_the_fmu_steers_and_saturates_as_the_file_says(slaves, path):
     """RLT with Coulomb at vx = 10 m/s and the nominal load: after 30 relaxation lengths
     of travel the lateral force is Calpha alpha at alpha = 1e-3 (below the limit) and
-    muY Fz0 at alpha = 0.3 (the sign of SPEC 2: positive alpha = -vy/vx gives positive Fy)."""
+    muY Fz0 at alpha = 0.3 (the sign of docs/specification.md 2: positive alpha = -vy/vx gives positive Fy)."""
     m = expected_mapping(path)
     for alpha, force in [(1e-3, m["Calpha"] * 1e-3), (0.3, m["muY"] * m["Fz0"])]:
         s = slaves(init=False)
@@ -179,7 +182,7 @@ def test_parameters_the_importer_set_keep_their_values(slaves):
     got = values(s, ["Calpha", "muY", "Ckappa", "sigmaY"])
     assert got["Calpha"] == 60000.0 and got["muY"] == 1.1
     assert got["Ckappa"] == pytest.approx(expected["Ckappa"], rel=1e-12)
-    # sigmaY is mapped from the file's Calpha (SPEC 10), not the importer's.
+    # sigmaY is mapped from the file's Calpha (docs/specification.md 10), not the importer's.
     assert got["sigmaY"] == pytest.approx(expected["sigmaY"], rel=1e-12)
 
 
@@ -193,6 +196,115 @@ def test_the_path_may_be_a_uri_or_relative_to_the_resources(fmu, slaves):
         s = slaves(init=False)
         assert with_file(s, given) == fc.FMI2_OK, given
         assert values(s, ["Calpha"])["Calpha"] == pytest.approx(expected, rel=1e-12), given
+
+
+def logged_instance(md, unzipdir, name, resources=True):
+    """An FMU2Slave with logging on (its log: `slave.log`, a LogCapture), instantiated with
+    the resources folder fmpy gives, or (resources=False) with none, as an importer may."""
+    from fmpy.fmi2 import FMU2Slave, fmi2CoSimulation
+
+    log = fc.LogCapture()
+    if resources:
+        slave = fc.new_slave(md, unzipdir, name=name, log=log, logging_on=True)
+    else:
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
+                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        slave.callbacks = log.callbacks
+        slave.component = slave.fmi2Instantiate(name.encode(), fmi2CoSimulation, md.guid.encode(), None,
+                                                ctypes.byref(slave.callbacks), False, True)
+        assert slave.component, "fmi2Instantiate without a resources folder returned NULL"
+    slave.log = log
+    return slave
+
+
+def test_a_relative_path_is_looked_up_in_the_resources_then_the_working_directory(fmu, tmp_path,
+                                                                                  monkeypatch):
+    """From a temporary working directory: a relative tirFile the resources folder does not
+    hold is read from the working directory; where both hold the name, the resources
+    folder's file wins; without a resources folder the working directory still serves.
+    The log names the file read."""
+    md, unzipdir = fmu
+    work = tmp_path / "work"
+    (work / "tires").mkdir(parents=True)
+    monkeypatch.chdir(work)
+    here = Path(os.getcwd())                 # as the FMU sees it (symbolic links resolved)
+    shutil.copy(MF61, work / "tires" / "rear.tir")
+    shutil.copy(PAC2002, work / "tires" / "both.tir")
+    in_resources = Path(unzipdir) / "resources" / "tires"
+    in_resources.mkdir(parents=True, exist_ok=True)
+    shutil.copy(MF61, in_resources / "both.tir")
+    cases = [("tires/rear.tir", here / "tires" / "rear.tir", MF61, True),
+             ("tires/both.tir", in_resources / "both.tir", MF61, True),
+             ("tires/both.tir", here / "tires" / "both.tir", PAC2002, False),
+             (os.path.join("..", "work", "tires", "rear.tir"), here / ".." / "work" / "tires" / "rear.tir",
+              MF61, True)]
+    assert expected_mapping(MF61)["Calpha"] != pytest.approx(expected_mapping(PAC2002)["Calpha"], rel=1e-3)
+    for given, read, source, resources in cases:
+        s = logged_instance(md, unzipdir, "relative", resources=resources)
+        try:
+            assert with_file(s, given) == fc.FMI2_OK, (given, s.log.text())
+            assert values(s, ["Calpha"])["Calpha"] == pytest.approx(
+                expected_mapping(source)["Calpha"], rel=1e-12), given
+            assert f"tirFile {read}: " in s.log.text(), (given, s.log.text())
+        finally:
+            s.freeInstance()
+
+
+def test_a_relative_path_found_nowhere_is_an_error_naming_every_path_tried(fmu, tmp_path, monkeypatch):
+    """fmi2Error at fmi2ExitInitializationMode, with a message that names the path in the
+    resources folder and the one in the working directory (or says there is no resources
+    folder); nothing changes, and the instance recovers by a reset."""
+    md, unzipdir = fmu
+    monkeypatch.chdir(tmp_path)
+    here = Path(os.getcwd())
+    defaults = fc.start_values(md)
+    for resources, tried in [(True, [Path(unzipdir) / "resources" / "tires" / "none.tir",
+                                     here / "tires" / "none.tir"]),
+                             (False, ["no resources folder", here / "tires" / "none.tir"])]:
+        s = logged_instance(md, unzipdir, "nowhere", resources=resources)
+        try:
+            assert with_file(s, "tires/none.tir") == fc.FMI2_ERROR, s.log.text()
+            errors = "\n".join(s.log.errors())
+            assert "tirFile 'tires/none.tir' is a relative path" in errors, errors
+            for place in tried:
+                assert str(place) in errors, (place, errors)
+            assert values(s, ["Calpha"])["Calpha"] == defaults["Calpha"]
+            s.reset()
+            fc.initialise(s, "RLT", inputs={"vx": 5.0, "vy": 0.1})
+            s.doStep(0.0, 0.01)
+            assert math.isfinite(s.getReal([fc.OUTPUT_VR["Fy"]])[0])
+        finally:
+            s.freeInstance()
+
+
+def test_the_fmi3_fmu_finds_a_relative_path_in_the_working_directory(tmp_path, monkeypatch):
+    """The FMI 3.0 FMU (its resources folder a native path, docs/specification.md 7c) looks up a relative
+    tirFile the same way, and names both places when it is in neither."""
+    import fmi3_common as f3
+
+    md = f3.read_md3()
+    unzipdir = f3.extract_fmu3(tmp_path / "fmu3")
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    shutil.copy(MF61, work / "rear.tir")
+    found = f3.new_slave3(md, unzipdir, "relative3")
+    missing = f3.new_slave3(md, unzipdir, "missing3")
+    try:
+        found.setString([f3.TIR_FILE_VR], ["rear.tir"])
+        f3.initialise3(found, "RLT")
+        calpha = found.getFloat64([fc.ALL_PARAMETER_VR["Calpha"]])[0]
+        assert calpha == pytest.approx(expected_mapping(MF61)["Calpha"], rel=1e-12)
+        missing.setString([f3.TIR_FILE_VR], ["none.tir"])
+        missing.enterInitializationMode(startTime=0.0)
+        status, _ = fc.status_of(missing.exitInitializationMode)
+        assert status == f3.FMI3_ERROR
+        errors = "\n".join(missing.log.errors())
+        for place in (Path(unzipdir) / "resources" / "none.tir", Path(os.getcwd()) / "none.tir"):
+            assert str(place) in errors, (place, errors)
+    finally:
+        f3.close3(found)
+        f3.close3(missing)
 
 
 def write_variant(tmp_path, replace, name="variant.tir"):
@@ -284,17 +396,20 @@ def test_the_mapping_command_prints_the_sources_and_writes_a_parameter_set(tmp_p
     assert bad.returncode == 2 and "none.tir" in bad.stderr
 
 
-def test_the_vehicle_example_runs_on_the_property_file(tmp_path, fmu_path):
-    """examples/tire_from_file.py: the snowblower's step steer on RLT tires from the
-    project's PAC2002 file equals the run on tires set parameter by parameter (to 1e-12 of
-    the gain) once the file's pneumatic trail is set to the paper's 0 by the importer; with
-    the file's trail the self-aligning moments add understeer (a lower steady gain)."""
+@pytest.mark.parametrize("fmi", ["fmi2", "fmi3"])
+def test_the_vehicle_example_runs_on_the_property_file(tmp_path, fmu_path, fmi):
+    """examples/tire_from_file.py, on either FMU: the snowblower's step steer on RLT tires
+    from the project's PAC2002 file equals the run on tires set parameter by parameter (to
+    1e-12 of the gain) once the file's pneumatic trail is set to the paper's 0 by the
+    importer; with the file's trail the self-aligning moments add understeer (a lower
+    steady gain)."""
     import sys
 
     sys.path.insert(0, str(REPO / "examples"))
     import tire_from_file as example
 
-    res = example.main(["--fmu", fmu_path, "--quick", "--out-dir", str(tmp_path)])
+    fmu = fmu_path if fmi == "fmi2" else str(REPO / "target" / "fmu" / "fmi3" / "TireLag.fmu")
+    res = example.main(["--fmu", fmu, "--quick", "--out-dir", str(tmp_path)])
     base = res["step"]["parameters"][1]
     assert np.max(np.abs(res["step"]["file, trail 0"][1] - base)) <= 1e-12 * np.max(np.abs(base))
     assert res["step"]["file"][1][-1] < base[-1] - 1e-4

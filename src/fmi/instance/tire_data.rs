@@ -1,4 +1,4 @@
-//! `tirFile` (SPEC 10): the String parameter naming a tire property file, read and mapped
+//! `tirFile` (docs/specification.md 10): the String parameter naming a tire property file, read and mapped
 //! at fmi2ExitInitializationMode ([`crate::tire_data`]). A parameter the importer set
 //! keeps its value; every other parameter the file maps takes the file's. A file that
 //! cannot be used is an fmi2Error naming it and what is wrong, and changes nothing.
@@ -50,8 +50,10 @@ pub fn path_of_file_uri(uri: &str) -> Option<PathBuf> {
 }
 
 impl Instance {
-    /// Where `tirFile` points: an absolute path, a `file:` URI, or a path relative to the
-    /// FMU's resources folder.
+    /// Where `tirFile` points: an absolute path, a `file:` URI, or a relative path, looked
+    /// up first in the FMU's resources folder (if the importer gave one and the file is
+    /// there: a file shipped inside the FMU) and then in the process's current working
+    /// directory (where a user running a simulation keeps their own files).
     fn tire_data_path(&self, given: &str) -> CallResult<PathBuf> {
         if given.starts_with("file:") {
             return path_of_file_uri(given)
@@ -61,12 +63,30 @@ impl Instance {
         if path.is_absolute() {
             return Ok(path.to_owned());
         }
+        let mut tried = Vec::new();
+        let mut not_tried = Vec::new();
         match &self.resources {
-            Some(resources) => Ok(resources.join(path)),
-            None => Err(Rejection::error(format!(
-                "tirFile '{given}' is relative, but the importer gave no resources folder at instantiation to find it in"
-            ))),
+            Some(resources) => tried.push((resources.join(path), "the FMU's resources folder")),
+            None => not_tried.push("no resources folder (the importer gave none)".to_owned()),
         }
+        match std::env::current_dir() {
+            Ok(directory) => tried.push((directory.join(path), "the current working directory")),
+            Err(e) => not_tried.push(format!("no current working directory ({e})")),
+        }
+        if let Some((found, _)) = tried.iter().find(|(candidate, _)| candidate.exists()) {
+            return Ok(found.clone());
+        }
+        let places: Vec<String> = tried
+            .iter()
+            .map(|(candidate, place)| format!("{} ({place})", candidate.display()))
+            .chain(not_tried)
+            .collect();
+        let message = format!(
+            "tirFile '{given}' is a relative path, looked up in the FMU's resources folder and then \
+             in the current working directory, and found in neither: tried {}",
+            places.join("; ")
+        );
+        Err(Rejection::error(message))
     }
 
     /// Reads `tirFile`, if set, into the parameters the importer did not set; checks them
