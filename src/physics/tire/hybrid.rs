@@ -54,8 +54,8 @@ pub struct Evaluation {
     /// [`Friction::together_branch_weights`] (zero where there is no such group or
     /// branch, whose offset is [`NO_GUARD`]).
     together_guard_offsets: ByBranch,
-    /// The contact mode the last event update was made in (None before the first).
-    decided_contact: Option<ContactMode>,
+    /// The inputs (their bits) the last event update was made at (None before the first).
+    decided_inputs: Option<[u64; Input::COUNT]>,
 }
 
 /// A value per group and branch.
@@ -77,7 +77,7 @@ impl Evaluation {
             inverse_limits: None,
             limit_law: InverseLimits::new(p),
             together_guard_offsets: offsets,
-            decided_contact: None,
+            decided_inputs: None,
         }
     }
 
@@ -331,22 +331,24 @@ impl Tire {
     /// does one the falling load left outside it; a sliding one whose motion turns inward
     /// sticks), as a step starts. Off the ground every group sticks.
     ///
-    /// Returns whether the continuous states or the modes (the contact, each group's stick
-    /// or slide) changed since the last update: the rates are then discontinuous there, and
-    /// a solver that keeps a history (CVode's, for one) must start again. The first update,
-    /// and the first after a restored FMU state, report a change.
+    /// Returns whether the continuous states, the modes (each group's stick or slide) or the
+    /// inputs (and with the load the contact) changed since the last update: the rates are
+    /// then discontinuous there, and a solver that keeps a history (CVode's, for one) must
+    /// start again. The first update, and the first after a restored FMU state, report a
+    /// change.
     pub fn update_modes(&mut self) -> bool {
         let contact = self.contact_mode();
-        let contact_changed = self.hybrid.decided_contact.replace(contact) != Some(contact);
+        let inputs = self.inputs.map(f64::to_bits);
+        let inputs_changed = self.hybrid.decided_inputs.replace(inputs) != Some(inputs);
         let Some(friction) = self.friction.as_ref() else {
-            return contact_changed;
+            return inputs_changed;
         };
         let mut sliders = *friction.state();
         let sliding_before = sliders.sliding;
         if contact == ContactMode::LiftedOff {
             sliders.sliding = SliderState::AT_REST.sliding;
             self.friction.as_mut().expect("checked above").set_state(sliders);
-            return contact_changed || sliders.sliding != sliding_before;
+            return inputs_changed || sliders.sliding != sliding_before;
         }
         let before = self.continuous_states();
         let (inputs, mut x) = (self.inputs, self.states);
@@ -359,7 +361,7 @@ impl Tire {
         self.changed();
         let after = self.continuous_states();
         let states_changed = before.iter().zip(&after).any(|(a, b)| a.to_bits() != b.to_bits());
-        contact_changed || sliders.sliding != sliding_before || states_changed
+        inputs_changed || sliders.sliding != sliding_before || states_changed
     }
 
     /// A typical magnitude of each continuous state: an element's state and its branch
