@@ -190,6 +190,18 @@ def example_fmu(request):
     return request.getfixturevalue("fmu_path")
 
 
+FMU3_PATH = REPO / "target" / "fmu" / "fmi3" / "TireLag.fmu"
+
+
+@pytest.fixture(scope="module", params=["fmi2", "fmi3"])
+def either_fmu(request, example_fmu):
+    """The FMU an example runs on: the FMI 2.0 one (example_fmu), then the FMI 3.0 one."""
+    if request.param == "fmi2":
+        return example_fmu
+    assert FMU3_PATH.is_file(), f"no FMI 3.0 FMU at {FMU3_PATH}: build it with ./scripts/build-fmu"
+    return str(FMU3_PATH)
+
+
 @pytest.fixture(scope="session")
 def unzipdir(fmu_path, tmp_path_factory):
     from fmpy import extract

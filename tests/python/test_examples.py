@@ -52,15 +52,6 @@ from cosim.fmi import FMI2, FMI3, fmi_version  # noqa: E402
 # --------------------------------------------------------------------------- fixtures
 
 
-@pytest.fixture(scope="module", params=["fmi2", "fmi3"])
-def either_fmu(request, example_fmu):
-    """The FMU an example runs on: the FMI 2.0 one (example_fmu), then the FMI 3.0 one."""
-    if request.param == "fmi2":
-        return example_fmu
-    assert FMU3.is_file(), f"no FMI 3.0 FMU at {FMU3}: build it with ./scripts/build-fmu"
-    return str(FMU3)
-
-
 @pytest.fixture(scope="module")
 def out_dir(tmp_path_factory, either_fmu):
     """One output folder per FMU, so that each run's files are checked, not the other's."""

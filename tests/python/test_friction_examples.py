@@ -45,13 +45,6 @@ import friction_laws  # noqa: E402
 from cosim.cli import read_csv  # noqa: E402
 
 
-@pytest.fixture(scope="module", params=["fmi2", "fmi3"])
-def either_fmu(request, example_fmu):
-    """The FMI 2.0 FMU (example_fmu), then the FMI 3.0 one."""
-    if request.param == "fmi2":
-        return example_fmu
-    assert FMU3.is_file(), f"no FMI 3.0 FMU at {FMU3}: build it with ./scripts/build-fmu"
-    return str(FMU3)
 
 
 @pytest.fixture(scope="module")
